@@ -1,0 +1,90 @@
+// The host side of the shared device code: the same files kernels/render.cl compiles
+// as OpenCL C, compiled here as C++, once per precision (namespaces f32 and f64) and
+// once per Features mask (Kernel<TR_FEATURES>), so TR_HAS(bit) is a compile-time
+// constant on both sides and the CPU path leaves out what the OpenCL program leaves out.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <glm/vec3.hpp>
+#include <glm/geometric.hpp>
+
+#include <twinray/device/prelude.h>
+#include <twinray/device/features.h>
+
+namespace twinray {
+namespace device {
+
+// The scalar math the device files call unqualified; std's float overloads are picked.
+using std::fabs;
+using std::floor;
+using std::nextafter;
+using std::sqrt;
+
+namespace f32 {
+typedef float real;
+typedef glm::vec<3, float> vec3;
+#include <twinray/device/types.h>
+template <unsigned TR_FEATURES>
+struct Kernel {
+#include <twinray/device/functions.h>
+};
+}  // namespace f32
+
+namespace f64 {
+typedef double real;
+typedef glm::vec<3, double> vec3;
+#include <twinray/device/types.h>
+template <unsigned TR_FEATURES>
+struct Kernel {
+#include <twinray/device/functions.h>
+};
+}  // namespace f64
+
+// Layout checks: the OpenCL compiler must lay these out the same way; the kernel
+// tr_layout_sizes reports its sizes and tests/device/layout_test.cpp compares them.
+static_assert(sizeof(f32::TrSphere) == 32 && sizeof(f64::TrSphere) == 48, "TrSphere layout");
+static_assert(sizeof(f32::TrTriangle) == 44 && sizeof(f64::TrTriangle) == 80, "TrTriangle layout");
+static_assert(sizeof(f32::TrPlane) == 32 && sizeof(f64::TrPlane) == 56, "TrPlane layout");
+static_assert(sizeof(f32::TrMaterial) == 32 && sizeof(f64::TrMaterial) == 64, "TrMaterial layout");
+static_assert(sizeof(f32::TrLight) == 24 && sizeof(f64::TrLight) == 48, "TrLight layout");
+static_assert(sizeof(f32::TrBvhNode) == 32 && sizeof(f64::TrBvhNode) == 56, "TrBvhNode layout");
+static_assert(sizeof(f32::TrParams) == 72 + 48 && sizeof(f64::TrParams) == 144 + 48,
+              "TrParams layout");
+
+// Maps the scalar type T to its instantiation of the device code.
+template <class T>
+struct Code;
+
+template <>
+struct Code<float> {
+  using Sphere = f32::TrSphere;
+  using Triangle = f32::TrTriangle;
+  using Plane = f32::TrPlane;
+  using Material = f32::TrMaterial;
+  using Light = f32::TrLight;
+  using BvhNode = f32::TrBvhNode;
+  using Params = f32::TrParams;
+  using SceneRef = f32::TrSceneRef;
+  template <unsigned Features>
+  using Kernel = f32::Kernel<Features>;
+  static constexpr const char* name = "float";
+};
+
+template <>
+struct Code<double> {
+  using Sphere = f64::TrSphere;
+  using Triangle = f64::TrTriangle;
+  using Plane = f64::TrPlane;
+  using Material = f64::TrMaterial;
+  using Light = f64::TrLight;
+  using BvhNode = f64::TrBvhNode;
+  using Params = f64::TrParams;
+  using SceneRef = f64::TrSceneRef;
+  template <unsigned Features>
+  using Kernel = f64::Kernel<Features>;
+  static constexpr const char* name = "double";
+};
+
+}  // namespace device
+}  // namespace twinray

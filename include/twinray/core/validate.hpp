@@ -1,0 +1,183 @@
+// validate(): refuses a scene, camera or options that cannot render correctly, before
+// anything is packed or allocated. Messages name the offending value by the path a
+// scene file would use (`objects[3].radius: must be > 0, got -1`).
+#pragma once
+
+#include <cmath>
+#include <sstream>
+#include <string>
+#include <type_traits>
+#include <glm/geometric.hpp>
+
+#include <twinray/core/error.hpp>
+#include <twinray/core/options.hpp>
+#include <twinray/scene/camera.hpp>
+#include <twinray/scene/scene.hpp>
+
+namespace twinray {
+
+// Largest image side and pixel count: a framebuffer must fit comfortably in memory
+// (limits.max_pixels x 3 x sizeof(double) = 1.5 GiB).
+struct Limits {
+  static constexpr int max_image_side = 65536;
+  static constexpr long long max_pixels = 1ll << 26;
+  static constexpr int max_spp = 1 << 16;
+  static constexpr int max_depth = 1024;
+};
+
+namespace detail {
+
+template <class T>
+std::string format_number(T v) {
+  std::ostringstream os;
+  os.precision(std::is_same<T, float>::value ? 9 : 17);
+  os << v;
+  return os.str();
+}
+
+template <class T>
+std::string format_vec(const glm::vec<3, T>& v) {
+  return "[" + format_number(v.x) + ", " + format_number(v.y) + ", " + format_number(v.z) + "]";
+}
+
+[[noreturn]] inline void refuse(const std::string& path, const std::string& problem) {
+  throw invalid_input(path + ": " + problem);
+}
+
+template <class T>
+void require_finite(const std::string& path, const glm::vec<3, T>& v) {
+  if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
+    refuse(path, "must be finite, got " + format_vec(v));
+}
+
+template <class T>
+void require_range(const std::string& path, T v, T lo, T hi, bool lo_open = false) {
+  bool ok = std::isfinite(v) && (lo_open ? v > lo : v >= lo) && v <= hi;
+  if (!ok) {
+    std::string want = std::isinf(hi) ? std::string(lo_open ? "> " : ">= ") + format_number(lo)
+                                      : "in [" + format_number(lo) + ", " + format_number(hi) + "]";
+    refuse(path, "must be " + want + ", got " + format_number(v));
+  }
+}
+
+inline std::string at(const std::string& base, size_t i) {
+  return base + "[" + std::to_string(i) + "]";
+}
+
+}  // namespace detail
+
+template <class T>
+void validate(const Camera<T>& camera) {
+  using detail::refuse;
+  if (camera.width < 1 || camera.width > Limits::max_image_side)
+    refuse("image.width", "must be in [1, " + std::to_string(Limits::max_image_side) + "], got " +
+                              std::to_string(camera.width));
+  if (camera.height < 1 || camera.height > Limits::max_image_side)
+    refuse("image.height", "must be in [1, " + std::to_string(Limits::max_image_side) + "], got " +
+                               std::to_string(camera.height));
+  if (static_cast<long long>(camera.width) * camera.height > Limits::max_pixels)
+    refuse("image", "width x height must be at most " + std::to_string(Limits::max_pixels) +
+                        " pixels, got " + std::to_string(camera.width) + " x " +
+                        std::to_string(camera.height));
+  detail::require_finite("camera.position", camera.position);
+  detail::require_finite("camera.look_at", camera.look_at);
+  detail::require_finite("camera.up", camera.up);
+  glm::vec<3, T> view = camera.look_at - camera.position;
+  T view_len = glm::length(view);
+  if (!(view_len > T(0)) || !std::isfinite(view_len))
+    refuse("camera.look_at",
+           "must differ from camera.position, both are " + detail::format_vec(camera.position));
+  T up_len = glm::length(camera.up);
+  if (!(up_len > T(0)) || !std::isfinite(up_len)) refuse("camera.up", "must be non-zero");
+  // sin of the angle between up and the view direction; below ~1e-6 rad the basis
+  // U = up x W loses most of its bits.
+  T sin_angle = glm::length(glm::cross(camera.up / up_len, view / view_len));
+  if (!(sin_angle > T(1e-6)))
+    refuse("camera.up", "must not be parallel to look_at - position, got up " +
+                            detail::format_vec(camera.up) + " and view direction " +
+                            detail::format_vec(view));
+  detail::require_range("camera.viewplane_height", camera.viewplane_height, T(0), T(INFINITY),
+                        true);
+  if (camera.focal_length)
+    detail::require_range("camera.focal_length", *camera.focal_length, T(0), T(INFINITY), true);
+}
+
+template <class T>
+void validate(const Scene<T>& scene) {
+  using detail::at;
+  using detail::refuse;
+  detail::require_finite("image.background", scene.background);
+  for (size_t i = 0; i < scene.materials.size(); ++i) {
+    const Material<T>& m = scene.materials[i];
+    std::string base = at("materials", i);
+    for (int c = 0; c < 3; ++c)
+      detail::require_range(base + ".color[" + std::to_string(c) + "]", m.color[c], T(0), T(1));
+    detail::require_range(base + ".ka", m.ka, T(0), T(INFINITY));
+    detail::require_range(base + ".kd", m.kd, T(0), T(INFINITY));
+    detail::require_range(base + ".ks", m.ks, T(0), T(INFINITY));
+    detail::require_range(base + ".shininess", m.shininess, T(0), T(INFINITY));
+    detail::require_range(base + ".glaze", m.glaze, T(0), T(1));
+  }
+  auto check_material = [&](const std::string& base, int material) {
+    if (material < 0 || static_cast<size_t>(material) >= scene.materials.size())
+      refuse(base + ".material", "no material with index " + std::to_string(material) + " (" +
+                                     std::to_string(scene.materials.size()) + " defined)");
+  };
+  for (size_t i = 0; i < scene.objects.size(); ++i) {
+    std::string base = at("objects", i);
+    const Object<T>& object = scene.objects[i];
+    if (auto* s = std::get_if<Sphere<T>>(&object)) {
+      detail::require_finite(base + ".center", s->center);
+      detail::require_range(base + ".radius", s->radius, T(0), T(INFINITY), true);
+      check_material(base, s->material);
+    } else if (auto* t = std::get_if<Triangle<T>>(&object)) {
+      for (int v = 0; v < 3; ++v)
+        detail::require_finite(base + ".vertices[" + std::to_string(v) + "]", t->vertices[v]);
+      check_material(base, t->material);
+    } else if (auto* p = std::get_if<Plane<T>>(&object)) {
+      detail::require_finite(base + ".point", p->point);
+      detail::require_finite(base + ".normal", p->normal);
+      T len = glm::length(p->normal);
+      if (!(len > T(0)) || !std::isfinite(len))
+        refuse(base + ".normal", "must be non-zero, got " + detail::format_vec(p->normal));
+      check_material(base, p->material);
+    } else if (auto* m = std::get_if<Mesh<T>>(&object)) {
+      for (size_t v = 0; v < m->vertices.size(); ++v)
+        detail::require_finite(at(base + ".vertices", v), m->vertices[v]);
+      for (size_t f = 0; f < m->triangles.size(); ++f)
+        for (int k = 0; k < 3; ++k) {
+          int index = m->triangles[f][k];
+          if (index < 0 || static_cast<size_t>(index) >= m->vertices.size())
+            refuse(at(base + ".triangles", f) + "[" + std::to_string(k) + "]",
+                   "vertex index " + std::to_string(index) + " out of range (" +
+                       std::to_string(m->vertices.size()) + " vertices)");
+        }
+      check_material(base, m->material);
+    }
+  }
+  for (size_t i = 0; i < scene.lights.size(); ++i) {
+    std::string base = at("lights", i);
+    const PointLight<T>& l = scene.lights[i];
+    detail::require_finite(base + ".position", l.position);
+    detail::require_range(base + ".intensity", l.intensity, T(0), T(INFINITY));
+    for (int c = 0; c < 3; ++c)
+      detail::require_range(base + ".color[" + std::to_string(c) + "]", l.color[c], T(0),
+                            T(INFINITY));
+  }
+}
+
+inline void validate(const RenderOptions& options) {
+  using detail::refuse;
+  if (options.spp < 1 || options.spp > Limits::max_spp)
+    refuse("render.spp", "must be in [1, " + std::to_string(Limits::max_spp) + "], got " +
+                             std::to_string(options.spp));
+  if (options.max_depth < 1 || options.max_depth > Limits::max_depth)
+    refuse("render.max_depth", "must be in [1, " + std::to_string(Limits::max_depth) + "], got " +
+                                   std::to_string(options.max_depth));
+  if ((options.terms & ~unsigned(kAllTerms)) != 0u)
+    refuse("render.terms", "unknown term bits " + std::to_string(options.terms));
+  if (options.threads < 0)
+    refuse("threads", "must be >= 0, got " + std::to_string(options.threads));
+}
+
+}  // namespace twinray

@@ -1,0 +1,21 @@
+/* The Features mask: what a scene and its render options use. It is a compile-time
+ * constant on both sides (-DTR_FEATURES=... for OpenCL, a template argument on the
+ * host), so code guarded by TR_HAS(bit) is dead on both sides when the bit is clear.
+ * Bits name structure only; camera pose, projection, light positions and counts,
+ * image size and frame number are buffer data, so changing them never rebuilds a
+ * program. */
+#ifndef TWINRAY_DEVICE_FEATURES_H
+#define TWINRAY_DEVICE_FEATURES_H
+
+#define TR_F_SPHERES 0x001u   /* scene has spheres */
+#define TR_F_TRIANGLES 0x002u /* scene has triangles (single or from meshes) */
+#define TR_F_PLANES 0x004u    /* scene has infinite planes */
+#define TR_F_BVH 0x008u       /* spheres and triangles are walked through a BVH */
+#define TR_F_SHADOWS 0x010u   /* shadow rays are traced */
+#define TR_F_GLAZE 0x020u     /* reflected rays are traced (something glazed, depth > 1) */
+#define TR_F_AMBIENT 0x040u   /* ambient term on */
+#define TR_F_DIFFUSE 0x080u   /* diffuse term on */
+#define TR_F_SPECULAR 0x100u  /* specular term on */
+#define TR_F_ALL 0x1ffu       /* the generic program: every feature compiled in */
+
+#endif /* TWINRAY_DEVICE_FEATURES_H */

@@ -1,0 +1,88 @@
+/* Watertight ray/triangle intersection (Woop, Benthin, Wald, "Watertight Ray/Triangle
+ * Intersection", JCGT 2(1), 2013), in the form of pbrt-v4's IntersectTriangle.
+ *
+ * The vertices are moved into a ray space where the ray is the +z axis (translate,
+ * permute so z is the dominant axis, shear). Each edge function then depends only on
+ * its edge's two transformed vertices, so two triangles sharing an edge compute the
+ * same value with opposite sign and no ray slips between them. Edge functions that
+ * come out exactly 0 count as inside for both neighbours (conservative: a ray through
+ * a shared edge may report both, never neither). pbrt's double-precision recompute of
+ * zero edge functions is left out: it needs cl_khr_fp64 in float renders, and the
+ * conservative test is already watertight. */
+
+TR_FN vec3 tr_permute(vec3 v, int kx, int ky, int kz) {
+  return TR_VEC3(tr_component(v, kx), tr_component(v, ky), tr_component(v, kz));
+}
+
+TR_FN int tr_intersect_triangle(TR_GLOBAL const TrTriangle* tri, TrRay ray, real tmax, TrHit* hit) {
+  vec3 p0 = TR_VEC3(tri->p0x, tri->p0y, tri->p0z);
+  vec3 p1 = TR_VEC3(tri->p1x, tri->p1y, tri->p1z);
+  vec3 p2 = TR_VEC3(tri->p2x, tri->p2y, tri->p2z);
+
+  /* Translate to the ray origin, permute so the dominant direction axis is z. */
+  vec3 ad = tr_abs3(ray.d);
+  int kz = ad.x > ad.y ? (ad.x > ad.z ? 0 : 2) : (ad.y > ad.z ? 1 : 2);
+  int kx = kz == 2 ? 0 : kz + 1;
+  int ky = kx == 2 ? 0 : kx + 1;
+  vec3 d = tr_permute(ray.d, kx, ky, kz);
+  vec3 a = tr_permute(p0 - ray.o, kx, ky, kz);
+  vec3 b = tr_permute(p1 - ray.o, kx, ky, kz);
+  vec3 c = tr_permute(p2 - ray.o, kx, ky, kz);
+
+  /* Shear x and y so the ray direction becomes +z. */
+  real sx = -d.x / d.z;
+  real sy = -d.y / d.z;
+  real sz = TR_R(1.0) / d.z;
+  real ax = a.x + sx * a.z, ay = a.y + sy * a.z;
+  real bx = b.x + sx * b.z, by = b.y + sy * b.z;
+  real cx = c.x + sx * c.z, cy = c.y + sy * c.z;
+
+  /* Edge functions: twice the signed areas seen from the ray. */
+  real e0 = bx * cy - by * cx;
+  real e1 = cx * ay - cy * ax;
+  real e2 = ax * by - ay * bx;
+  if ((e0 < TR_R(0.0) || e1 < TR_R(0.0) || e2 < TR_R(0.0)) &&
+      (e0 > TR_R(0.0) || e1 > TR_R(0.0) || e2 > TR_R(0.0)))
+    return 0;
+  real det = e0 + e1 + e2;
+  if (det == TR_R(0.0)) return 0;
+
+  /* Scaled hit distance, range-tested against det * tmax before dividing. */
+  real az = sz * a.z, bz = sz * b.z, cz = sz * c.z;
+  real t_scaled = e0 * az + e1 * bz + e2 * cz;
+  if (det < TR_R(0.0) && (t_scaled >= TR_R(0.0) || t_scaled < tmax * det)) return 0;
+  if (det > TR_R(0.0) && (t_scaled <= TR_R(0.0) || t_scaled > tmax * det)) return 0;
+
+  real inv_det = TR_R(1.0) / det;
+  real b0 = e0 * inv_det, b1 = e1 * inv_det, b2 = e2 * inv_det;
+  real t = t_scaled * inv_det;
+
+  /* Reject t below its conservative error bound (pbrt-v4, "Ensure that computed
+   * triangle t is conservatively greater than zero"). */
+  real max_zt = tr_max_component(tr_abs3(TR_VEC3(az, bz, cz)));
+  real max_xt = tr_max_component(tr_abs3(TR_VEC3(ax, bx, cx)));
+  real max_yt = tr_max_component(tr_abs3(TR_VEC3(ay, by, cy)));
+  real delta_z = tr_gamma(3) * max_zt;
+  real delta_x = tr_gamma(5) * (max_xt + max_zt);
+  real delta_y = tr_gamma(5) * (max_yt + max_zt);
+  real delta_e = TR_R(2.0) * (tr_gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+  real max_e = tr_max_component(tr_abs3(TR_VEC3(e0, e1, e2)));
+  real delta_t = TR_R(3.0) * (tr_gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) *
+                 fabs(inv_det);
+  if (!(t > delta_t)) return 0;
+
+  /* Zero-area triangles have no normal: never hit them. */
+  vec3 normal = tr_cross(p1 - p0, p2 - p0);
+  real area2 = tr_dot(normal, normal);
+  if (!(area2 > TR_R(0.0))) return 0;
+
+  /* Hit point from barycentrics: its error lies along the surface, not off it
+   * (Waechter and Binder, Ray Tracing Gems ch. 6); bound gamma(7) sum |b_i p_i|. */
+  hit->t = t;
+  hit->p = p0 * b0 + p1 * b1 + p2 * b2;
+  hit->perr = (tr_abs3(p0 * b0) + tr_abs3(p1 * b1) + tr_abs3(p2 * b2)) * tr_gamma(7);
+  hit->n = normal * (TR_R(1.0) / sqrt(area2));
+  hit->material = tri->material;
+  hit->object = tri->object;
+  return 1;
+}

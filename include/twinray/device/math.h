@@ -1,0 +1,89 @@
+/* Small vector and scalar math, written with + - * /, sqrt, fabs, floor and compares
+ * only: those are exactly rounded on both sides, where built-ins such as dot,
+ * normalize or pow are implementation-defined (research/parity-findings.md, Q3). */
+
+TR_FN real tr_min(real a, real b) {
+  return a < b ? a : b;
+}
+TR_FN real tr_max(real a, real b) {
+  return a > b ? a : b;
+}
+TR_FN real tr_clamp01(real a) {
+  return a < TR_R(0.0) ? TR_R(0.0) : (a > TR_R(1.0) ? TR_R(1.0) : a);
+}
+
+TR_FN real tr_dot(vec3 a, vec3 b) {
+  return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+
+TR_FN vec3 tr_cross(vec3 a, vec3 b) {
+  return TR_VEC3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+
+TR_FN real tr_length(vec3 v) {
+  return sqrt(tr_dot(v, v));
+}
+
+TR_FN vec3 tr_normalize(vec3 v) {
+  return v * (TR_R(1.0) / sqrt(tr_dot(v, v)));
+}
+
+TR_FN vec3 tr_abs3(vec3 v) {
+  return TR_VEC3(fabs(v.x), fabs(v.y), fabs(v.z));
+}
+
+TR_FN real tr_max_component(vec3 v) {
+  return tr_max(v.x, tr_max(v.y, v.z));
+}
+
+/* Component i (0, 1, 2) of v; OpenCL vectors cannot be indexed at run time. */
+TR_FN real tr_component(vec3 v, int i) {
+  return i == 0 ? v.x : (i == 1 ? v.y : v.z);
+}
+
+/* Unit roundoff of real: 2^-24 for float, 2^-53 for double. */
+TR_FN real tr_unit_roundoff(void) {
+  return sizeof(real) == 4 ? TR_R(1.0) / TR_R(16777216.0) : TR_R(1.0) / TR_R(9007199254740992.0);
+}
+
+/* gamma(n) = n u / (1 - n u): the bound on the relative error of n successive rounded
+ * operations (Higham, Accuracy and Stability of Numerical Algorithms, 3.1; pbrt-v4's
+ * gamma()). */
+TR_FN real tr_gamma(int n) {
+  real nu = (real)n * tr_unit_roundoff();
+  return nu / (TR_R(1.0) - nu);
+}
+
+/* x^p for x in [0, 1] and any real p >= 0, from exactly rounded operations only, so
+ * both sides agree bit for bit (the built-in pow differs by 1-2 ulp between glibc and
+ * PoCL's SLEEF). The integer part of p goes by repeated squaring; the fractional part
+ * 0.b1 b2 b3... by its binary digits, x^(2^-k) being k square roots of x. Each step
+ * rounds once, so the relative error stays within about (log2 p + digits) ulp. */
+TR_FN real tr_pow_unit(real x, real p) {
+  real result = TR_R(1.0);
+  real whole = floor(p);
+  real frac = p - whole; /* exact */
+  real base = x;
+  while (whole > TR_R(0.0) && result > TR_R(0.0)) {
+    real halved = floor(whole * TR_R(0.5));
+    if (whole - halved * TR_R(2.0) > TR_R(0.0)) result = result * base;
+    whole = halved;
+    if (whole > TR_R(0.0)) base = base * base;
+  }
+  int digits = sizeof(real) == 4 ? 24 : 53;
+  real root = x;
+  for (int k = 0; k < digits && frac > TR_R(0.0); ++k) {
+    frac = frac * TR_R(2.0); /* exact: shifts the next binary digit in front */
+    root = sqrt(root);
+    if (frac >= TR_R(1.0)) {
+      result = result * root;
+      frac = frac - TR_R(1.0);
+    }
+  }
+  return result;
+}
+
+/* Is a feature compiled in (TR_HAS) and switched on for this frame? */
+TR_FN int tr_use(const TrSceneRef* s, unsigned bit) {
+  return TR_HAS(bit) && (((unsigned)s->params->features & bit) != 0u);
+}

@@ -1,0 +1,57 @@
+/* twinray device prelude: the one place that knows C++17 and OpenCL C 1.2 differ.
+ *
+ * Every file under device/ is written in the common subset of both languages and
+ * uses only what this prelude defines:
+ *   real, vec3          scalar and 3-vector of the render's precision
+ *   TR_VEC3(x, y, z)    vector construction ((float3)(a,b,c) is a comma expression in C++)
+ *   TR_R(lit)           a literal of type real; device code uses dyadic literals only
+ *                       (0.5, 1, 2^-24, ...), which every conversion keeps exact
+ *   TR_FN               qualifier of every device function
+ *   TR_GLOBAL           address space of pointers into scene buffers
+ *   TR_HAS(bit)         compile-time test of the Features mask (TR_FEATURES)
+ *
+ * On the device, TR_FEATURES and TR_DOUBLE arrive as -D build options. On the host,
+ * include/twinray/core/device_code.hpp includes the function headers inside
+ * `template <unsigned TR_FEATURES> struct Kernel`, so the same TR_HAS text is a
+ * template parameter test there, and includes them once per precision with its
+ * own `real`/`vec3` typedefs.
+ *
+ * Parity rules (research/parity-findings.md): no floating-point contraction on either
+ * side, and device code calls no built-in whose result is implementation-defined; it
+ * uses + - * /, sqrt, fabs, floor, nextafter and comparisons only. */
+#ifndef TWINRAY_DEVICE_PRELUDE_H
+#define TWINRAY_DEVICE_PRELUDE_H
+
+#if defined(__OPENCL_VERSION__) || defined(__OPENCL_C_VERSION__)
+/* ---- OpenCL C 1.2 ---- */
+#define TR_DEVICE 1
+#pragma OPENCL FP_CONTRACT OFF
+#ifdef TR_DOUBLE
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+typedef double real;
+typedef double3 vec3;
+#define TR_VEC3(x, y, z) ((double3)((x), (y), (z)))
+#else
+typedef float real;
+typedef float3 vec3;
+#define TR_VEC3(x, y, z) ((float3)((x), (y), (z)))
+#endif
+#define TR_FN static inline
+#define TR_GLOBAL __global
+#ifndef TR_FEATURES
+#error "TR_FEATURES (the Features mask) must be passed as a build option"
+#endif
+
+#else
+/* ---- host C++17 (compile with -ffp-contract=off; the CMake targets carry it) ---- */
+#include <cmath>
+#include <glm/vec3.hpp>
+#define TR_FN static inline
+#define TR_GLOBAL
+#define TR_VEC3(x, y, z) vec3((x), (y), (z))
+#endif
+
+#define TR_R(lit) ((real)(lit))
+#define TR_HAS(bit) ((TR_FEATURES & (bit)) != 0u)
+
+#endif /* TWINRAY_DEVICE_PRELUDE_H */

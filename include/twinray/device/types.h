@@ -1,0 +1,92 @@
+/* Every struct the device code uses, defined once for both sides.
+ *
+ * Buffer structs (everything the host packs and uploads) hold plain `real` and `int`
+ * fields only, never vec3: float3 is 16 bytes in OpenCL and glm::vec3 is 12. Reals come
+ * first and ints pad to an even count, so sizeof and every offset agree between g++ and
+ * OpenCL in float and double; core/device_code.hpp checks the sizes with static_assert
+ * and the tests check them against the kernel's own sizeof.
+ *
+ * No include guard: the host includes this file once per precision, in namespaces
+ * twinray::device::f32 and ::f64. */
+
+/* ---- buffer structs ---- */
+
+typedef struct TrSphere {
+  real cx, cy, cz, radius;
+  int material, object, pad0, pad1;
+} TrSphere;
+
+/* Vertices inline: a mesh's shared vertices become bit-identical copies, which is all
+ * the watertight test needs (both triangles see the same edge). */
+typedef struct TrTriangle {
+  real p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z;
+  int material, object;
+} TrTriangle;
+
+/* Unit normal; the host normalizes it when packing. */
+typedef struct TrPlane {
+  real px, py, pz, nx, ny, nz;
+  int material, object;
+} TrPlane;
+
+typedef struct TrMaterial {
+  real r, g, b, ka, kd, ks, shininess, glaze;
+} TrMaterial;
+
+/* Radiant intensity per channel: color x intensity, premultiplied by the host. */
+typedef struct TrLight {
+  real px, py, pz, r, g, b;
+} TrLight;
+
+/* Flattened BVH node. A leaf has count > 0 primitives starting at `first` in the
+ * primitive index array; an inner node has count = -axis (0, -1 or -2, its split
+ * axis) and its children at `first` (lower along the axis) and `first + 1`. */
+typedef struct TrBvhNode {
+  real min_x, min_y, min_z, max_x, max_y, max_z;
+  int first, count;
+} TrBvhNode;
+
+/* Per-frame data: camera, image, counts and run-time switches. */
+typedef struct TrParams {
+  real origin_x, origin_y, origin_z;                /* camera position */
+  real first_pixel_x, first_pixel_y, first_pixel_z; /* center of pixel (0, 0) */
+  real du_x, du_y, du_z;                            /* one pixel to the right */
+  real dv_x, dv_y, dv_z;                            /* one pixel down */
+  real ortho_dir_x, ortho_dir_y, ortho_dir_z;       /* -W, the orthographic ray direction */
+  real bg_r, bg_g, bg_b;                            /* background color */
+  int width, height;
+  int projection; /* 0 perspective, 1 orthographic */
+  int spp, sampler, max_depth;
+  int n_spheres, n_triangles, n_planes, n_lights, n_bvh_nodes;
+  int features; /* the run-time Features mask: switches inside the compiled ones */
+} TrParams;
+
+/* ---- private (never uploaded) ---- */
+
+/* Pointers into the scene buffers: one argument instead of nine. */
+typedef struct TrSceneRef {
+  TR_GLOBAL const TrParams* params;
+  TR_GLOBAL const TrSphere* spheres;
+  TR_GLOBAL const TrTriangle* triangles;
+  TR_GLOBAL const TrPlane* planes;
+  TR_GLOBAL const TrMaterial* materials;
+  TR_GLOBAL const TrLight* lights;
+  TR_GLOBAL const TrBvhNode* bvh_nodes;
+  TR_GLOBAL const int* bvh_prims;
+} TrSceneRef;
+
+typedef struct TrRay {
+  vec3 o, d; /* d has unit length */
+} TrRay;
+
+typedef struct TrHit {
+  real t;
+  vec3 p;    /* hit point, refined onto the surface */
+  vec3 perr; /* per-axis bound on the error of p (pbrt-v4's pError) */
+  vec3 n;    /* unit geometric normal, not yet turned toward the ray */
+  int material, object;
+} TrHit;
+
+typedef struct TrSample2 {
+  real x, y; /* position inside the pixel, in [0, 1) */
+} TrSample2;

@@ -1,0 +1,39 @@
+// Scene<T>: materials, an ordered list of objects, point lights and a background.
+// An object's index in `objects` is its identity everywhere (error messages name
+// `objects[i]`, the object AOV writes i), matching the scene file's `objects` array.
+#pragma once
+
+#include <variant>
+#include <vector>
+#include <glm/vec3.hpp>
+
+#include <twinray/scene/light.hpp>
+#include <twinray/scene/material.hpp>
+#include <twinray/scene/shapes.hpp>
+
+namespace twinray {
+
+template <class T>
+using Object = std::variant<Sphere<T>, Triangle<T>, Plane<T>, Mesh<T>>;
+
+template <class T>
+struct Scene {
+  std::vector<Material<T>> materials;
+  std::vector<Object<T>> objects;
+  std::vector<PointLight<T>> lights;
+  glm::vec<3, T> background{T(0), T(0), T(0)};  // color of rays that hit nothing
+
+  // Each returns the new element's index.
+  int add_material(const Material<T>& m) { return push(materials, m); }
+  int add(const Object<T>& object) { return push(objects, object); }
+  int add_light(const PointLight<T>& light) { return push(lights, light); }
+
+ private:
+  template <class V, class E>
+  static int push(V& v, const E& e) {
+    v.push_back(e);
+    return static_cast<int>(v.size()) - 1;
+  }
+};
+
+}  // namespace twinray

@@ -1,0 +1,57 @@
+/* twinray OpenCL entry points: thin wrappers around the shared device code.
+ * Built with -DTR_FEATURES=<mask> (and -DTR_DOUBLE for double renders). At build time
+ * of the library, cmake/embed_kernels.cmake inlines the quoted includes below, with
+ * #line markers, into a C++ header, so no OpenCL driver ever resolves an #include. */
+#include "twinray/device/prelude.h"
+#include "twinray/device/features.h"
+#include "twinray/device/types.h"
+#include "twinray/device/functions.h"
+
+#define TR_SCENE_ARGS                                                       \
+  __global const TrParams *params, __global const TrSphere *spheres,        \
+      __global const TrTriangle *triangles, __global const TrPlane *planes, \
+      __global const TrMaterial *materials, __global const TrLight *lights, \
+      __global const TrBvhNode *bvh_nodes, __global const int *bvh_prims
+
+static inline TrSceneRef tr_scene_ref(TR_SCENE_ARGS) {
+  TrSceneRef s;
+  s.params = params;
+  s.spheres = spheres;
+  s.triangles = triangles;
+  s.planes = planes;
+  s.materials = materials;
+  s.lights = lights;
+  s.bvh_nodes = bvh_nodes;
+  s.bvh_prims = bvh_prims;
+  return s;
+}
+
+/* One work-item per pixel; the global size is padded to the work-group size. */
+__kernel void tr_kernel_render(TR_SCENE_ARGS, __global real* out) {
+  int x = (int)get_global_id(0), y = (int)get_global_id(1);
+  if (x >= params->width || y >= params->height) return;
+  TrSceneRef s =
+      tr_scene_ref(params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims);
+  tr_store_rgb(out, params->width, x, y, tr_render_pixel(&s, x, y));
+}
+
+__kernel void tr_kernel_aov(TR_SCENE_ARGS, __global real* out, int aov) {
+  int x = (int)get_global_id(0), y = (int)get_global_id(1);
+  if (x >= params->width || y >= params->height) return;
+  TrSceneRef s =
+      tr_scene_ref(params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims);
+  tr_store_rgb(out, params->width, x, y, tr_render_aov(&s, x, y, aov));
+}
+
+/* sizeof of every buffer struct as the device compiler lays it out; the host compares
+ * them with its own (tests/device/layout_test.cpp). */
+__kernel void tr_kernel_layout_sizes(__global int* out) {
+  if (get_global_id(0) != 0) return;
+  out[0] = (int)sizeof(TrSphere);
+  out[1] = (int)sizeof(TrTriangle);
+  out[2] = (int)sizeof(TrPlane);
+  out[3] = (int)sizeof(TrMaterial);
+  out[4] = (int)sizeof(TrLight);
+  out[5] = (int)sizeof(TrBvhNode);
+  out[6] = (int)sizeof(TrParams);
+}
