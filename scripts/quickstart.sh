@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# twinray quick start, for a fresh Debian 12 machine as root (README "Quick start").
+#   bash scripts/quickstart.sh demo   install what is missing, build, render the demo
+#   bash scripts/quickstart.sh test   install what is missing, build, run every test
+# .ci/run calls the second; nothing else. Build folder: $TWINRAY_BUILD_DIR or ./build.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+mode="${1:-}"
+case "$mode" in demo | test) ;; *)
+  echo "usage: bash scripts/quickstart.sh demo|test" >&2
+  exit 2
+  ;;
+esac
+
+# 1. Debian packages that are missing (scripts/packages.txt).
+mapfile -t wanted < <(sed -e 's/#.*//' -e '/^[[:space:]]*$/d' scripts/packages.txt)
+missing=()
+for p in "${wanted[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "quickstart: installing ${missing[*]}" >&2
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq
+  apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+# 2. Build.
+build="${TWINRAY_BUILD_DIR:-build}"
+jobs="$(nproc)"
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
+if [ "$mode" = demo ]; then
+  cmake --build "$build" -j "$jobs" --target demo
+  mkdir -p out/demo
+  "$build/examples/demo" out/demo
+  echo "quickstart: the demo images are in out/demo/ (demo.png and the seed's comparisons)"
+else
+  cmake --build "$build" -j "$jobs"
+  cd "$build"
+  ctest --output-on-failure -j "$jobs"
+fi
