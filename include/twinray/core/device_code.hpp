@@ -66,6 +66,9 @@ struct Code<float> {
   using BvhNode = f32::TrBvhNode;
   using Params = f32::TrParams;
   using SceneRef = f32::TrSceneRef;
+  using Ray = f32::TrRay;
+  using Hit = f32::TrHit;
+  using Sample2 = f32::TrSample2;
   template <unsigned Features>
   using Kernel = f32::Kernel<Features>;
   static constexpr const char* name = "float";
@@ -81,6 +84,9 @@ struct Code<double> {
   using BvhNode = f64::TrBvhNode;
   using Params = f64::TrParams;
   using SceneRef = f64::TrSceneRef;
+  using Ray = f64::TrRay;
+  using Hit = f64::TrHit;
+  using Sample2 = f64::TrSample2;
   template <unsigned Features>
   using Kernel = f64::Kernel<Features>;
   static constexpr const char* name = "double";

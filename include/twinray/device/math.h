@@ -58,7 +58,9 @@ TR_FN real tr_gamma(int n) {
  * both sides agree bit for bit (the built-in pow differs by 1-2 ulp between glibc and
  * PoCL's SLEEF). The integer part of p goes by repeated squaring; the fractional part
  * 0.b1 b2 b3... by its binary digits, x^(2^-k) being k square roots of x. Each step
- * rounds once, so the relative error stays within about (log2 p + digits) ulp. */
+ * rounds once; like any multiplication chain for x^n its relative error is bounded by
+ * about (p + digits) ulp (in practice far less: 8e-5 relative at p = 1e4 in float),
+ * invisible in a highlight and the same on both sides. */
 TR_FN real tr_pow_unit(real x, real p) {
   real result = TR_R(1.0);
   real whole = floor(p);
