@@ -7,6 +7,7 @@
 #include <vector>
 #include <glm/geometric.hpp>
 
+#include <twinray/core/bvh.hpp>
 #include <twinray/core/device_code.hpp>
 #include <twinray/core/options.hpp>
 #include <twinray/core/validate.hpp>
@@ -98,6 +99,10 @@ PackedScene<T> pack(const Scene<T>& scene, const Camera<T>& camera, const Render
         add_triangle(m->vertices[f[0]], m->vertices[f[1]], m->vertices[f[2]], m->material);
     }
   }
+
+  // Spheres and triangles go into a BVH from the measured threshold on (core/bvh.hpp).
+  if (ps.spheres.size() + ps.triangles.size() >= static_cast<size_t>(bvh::kMinPrimitives))
+    bvh::build(ps, options.threads);
 
   CameraFrame<T> cf = camera.frame();
   auto& p = ps.params;

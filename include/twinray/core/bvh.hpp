@@ -1,0 +1,384 @@
+// The BVH over a packed scene's spheres and triangles (planes are unbounded and stay
+// outside it): a binned-SAH build (Wald, "On fast Construction of SAH-based Bounding
+// Volume Hierarchies", 2007; pbrt-v4 BVHAggregate), flattened into the index-based
+// TrBvhNode array that device/bvh_traverse.h walks on both backends.
+//
+// Layout (device/types.h TrBvhNode): node 0 is the root; an inner node's two children
+// are adjacent at `first` (lower along its split axis) and `first + 1`; a leaf's
+// primitives are bvh_prims[first .. first + count). Primitive ids: spheres first
+// (0 .. n_spheres - 1), then triangles.
+//
+// Guarantees the traversal relies on:
+//  - depth: no leaf is deeper than kMaxDepth, so the traversal's stack of
+//    TR_BVH_STACK_SIZE entries never overflows (it holds at most depth + 1 entries);
+//    near the cap the builder switches to median splits, which halve the count, and it
+//    starts doing so early enough to end every branch in small leaves;
+//  - bounds: every box contains what it bounds with a margin, rounded outward to the
+//    scene's precision, so rounding in the primitive tests never makes a primitive
+//    report a hit through a box the ray misses.
+//
+// The build runs subtrees on separate threads (up to `threads`, 0 = all cores); the
+// result does not depend on the thread count.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <thread>
+#include <vector>
+
+#include <twinray/core/device_code.hpp>
+
+namespace twinray {
+
+template <class T>
+struct PackedScene;
+
+namespace bvh {
+
+// Scenes with fewer spheres + triangles than this skip the BVH (linear loops are
+// faster there). Measured on the 2-core build machine with bench/bvh_threshold
+// (docs/performance.md): the BVH wins from about this many primitives on, on both
+// backends.
+constexpr int kMinPrimitives = 16;
+
+constexpr int kMaxDepth = 48;             // leaf depth cap; TR_BVH_STACK_SIZE >= kMaxDepth + 1
+constexpr int kMaxLeafSize = 8;           // SAH leaves hold at most this many primitives
+constexpr int kBins = 16;                 // SAH bins per axis
+constexpr double kTraversalCost = 1.0;    // relative to one primitive test
+constexpr int kParallelMinPrims = 16384;  // smaller subtrees are built on the calling thread
+
+static_assert(TR_BVH_STACK_SIZE >= kMaxDepth + 1, "BVH depth cap exceeds the traversal stack");
+
+struct Box {
+  double lo[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+                  std::numeric_limits<double>::infinity()};
+  double hi[3] = {-std::numeric_limits<double>::infinity(),
+                  -std::numeric_limits<double>::infinity(),
+                  -std::numeric_limits<double>::infinity()};
+  void grow(const Box& b) {
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], b.lo[a]);
+      hi[a] = std::max(hi[a], b.hi[a]);
+    }
+  }
+  void grow(const double p[3]) {
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], p[a]);
+      hi[a] = std::max(hi[a], p[a]);
+    }
+  }
+  bool empty() const { return lo[0] > hi[0]; }
+  double half_area() const {
+    if (empty()) return 0;
+    double dx = hi[0] - lo[0], dy = hi[1] - lo[1], dz = hi[2] - lo[2];
+    return dx * dy + dy * dz + dz * dx;
+  }
+};
+
+// One primitive as the builder sees it: bounds and centroid, in double.
+struct PrimRef {
+  Box box;
+  double centroid[3];
+  int id;
+};
+
+struct Stats {
+  int nodes = 0, leaves = 0, max_depth = 0, max_leaf = 0;
+};
+
+namespace detail {
+
+template <class Node>
+struct Builder {
+  std::vector<PrimRef>& refs;
+  std::atomic<int> spare_threads;
+
+  Builder(std::vector<PrimRef>& r, int threads) : refs(r), spare_threads(threads - 1) {}
+
+  // Fills nodes[self] for refs[begin, end) and appends its descendants to `nodes`.
+  void build(std::vector<Node>& nodes, int self, int begin, int end, int depth) {
+    int n = end - begin;
+    Box box, cbox;
+    for (int i = begin; i < end; ++i) {
+      box.grow(refs[i].box);
+      cbox.grow(refs[i].centroid);
+    }
+    set_box(nodes[self], box);
+
+    int mid = -1, axis = 0;
+    // Levels left below this node if every further split halves the count.
+    int halvings = 0;
+    for (int m = n; m > kMaxLeafSize; m = (m + 1) / 2) ++halvings;
+    bool near_cap = depth + halvings >= kMaxDepth - 1;
+    if (n <= 1) {
+      mid = -1;
+    } else if (near_cap) {
+      mid = n <= kMaxLeafSize ? -1 : median_split(begin, end, cbox, &axis);
+    } else {
+      mid = sah_split(begin, end, box, cbox, &axis);
+    }
+    if (mid < 0 || depth >= kMaxDepth) {
+      make_leaf(nodes[self], begin, n);
+      return;
+    }
+
+    int first = static_cast<int>(nodes.size());
+    nodes[self].first = first;
+    nodes[self].count = -axis;
+    nodes.emplace_back();
+    nodes.emplace_back();
+    bool parallel = std::min(mid - begin, end - mid) >= kParallelMinPrims && take_thread();
+    if (!parallel) {
+      build(nodes, first, begin, mid, depth + 1);
+      build(nodes, first + 1, mid, end, depth + 1);
+      return;
+    }
+    // The left subtree on a new thread: each side into its own array, spliced in
+    // left then right, the order a serial build writes them in, so the result does
+    // not depend on the thread count.
+    std::vector<Node> left(1), right(1);
+    std::thread worker([&] { build(left, 0, begin, mid, depth + 1); });
+    build(right, 0, mid, end, depth + 1);
+    worker.join();
+    spare_threads.fetch_add(1);
+    splice(nodes, first, left);
+    splice(nodes, first + 1, right);
+  }
+
+  // Moves a subtree built on its own (root at sub[0]) to nodes[slot] and the end.
+  static void splice(std::vector<Node>& nodes, int slot, const std::vector<Node>& sub) {
+    int offset = static_cast<int>(nodes.size()) - 1;  // sub[i] lands at offset + i, i >= 1
+    auto relocate = [offset](Node node) {
+      if (node.count <= 0) node.first += offset;
+      return node;
+    };
+    nodes[slot] = relocate(sub[0]);
+    for (size_t i = 1; i < sub.size(); ++i) nodes.push_back(relocate(sub[i]));
+  }
+
+  bool take_thread() {
+    int s = spare_threads.load();
+    while (s > 0)
+      if (spare_threads.compare_exchange_weak(s, s - 1)) return true;
+    return false;
+  }
+
+  static void make_leaf(Node& node, int begin, int n) {
+    node.first = begin;
+    node.count = n;
+  }
+
+  // Outward rounding with a margin: the box grows by 2^-20 of its largest coordinate
+  // magnitude (about 8 float ulps), then rounds away from its center in the
+  // precision of the scene.
+  static void set_box(Node& node, const Box& b) {
+    using real = decltype(node.min_x);
+    double mag = 0;
+    for (int a = 0; a < 3; ++a) mag = std::max({mag, std::fabs(b.lo[a]), std::fabs(b.hi[a])});
+    double pad = mag * 0x1p-20 + std::numeric_limits<double>::denorm_min();
+    auto down = [](double v) {
+      real r = static_cast<real>(v);
+      return static_cast<double>(r) > v ? std::nextafter(r, -std::numeric_limits<real>::infinity())
+                                        : r;
+    };
+    auto up = [](double v) {
+      real r = static_cast<real>(v);
+      return static_cast<double>(r) < v ? std::nextafter(r, std::numeric_limits<real>::infinity())
+                                        : r;
+    };
+    node.min_x = down(b.lo[0] - pad), node.min_y = down(b.lo[1] - pad),
+    node.min_z = down(b.lo[2] - pad);
+    node.max_x = up(b.hi[0] + pad), node.max_y = up(b.hi[1] + pad), node.max_z = up(b.hi[2] + pad);
+  }
+
+  static int widest_axis(const Box& b) {
+    double ext[3] = {b.hi[0] - b.lo[0], b.hi[1] - b.lo[1], b.hi[2] - b.lo[2]};
+    return ext[0] >= ext[1] ? (ext[0] >= ext[2] ? 0 : 2) : (ext[1] >= ext[2] ? 1 : 2);
+  }
+
+  // Splits at the median centroid along the widest centroid axis (ties by id, so the
+  // result is deterministic); lower half first.
+  int median_split(int begin, int end, const Box& cbox, int* axis) {
+    int a = widest_axis(cbox);
+    int mid = begin + (end - begin) / 2;
+    std::nth_element(refs.begin() + begin, refs.begin() + mid, refs.begin() + end,
+                     [a](const PrimRef& x, const PrimRef& y) {
+                       return x.centroid[a] < y.centroid[a] ||
+                              (x.centroid[a] == y.centroid[a] && x.id < y.id);
+                     });
+    *axis = a;
+    return mid;
+  }
+
+  // Binned SAH over all three axes. Returns the split position, or -1 for "make a
+  // leaf" (allowed only at kMaxLeafSize primitives or fewer).
+  int sah_split(int begin, int end, const Box& box, const Box& cbox, int* axis) {
+    int n = end - begin;
+    struct Bin {
+      Box box;
+      int count = 0;
+    };
+    double best_cost = std::numeric_limits<double>::infinity();
+    int best_axis = -1, best_bin = -1;
+    for (int a = 0; a < 3; ++a) {
+      double extent = cbox.hi[a] - cbox.lo[a];
+      if (!(extent > 0)) continue;
+      double scale = kBins / extent;
+      std::array<Bin, kBins> bins;
+      for (int i = begin; i < end; ++i) {
+        int b = std::min(kBins - 1, static_cast<int>((refs[i].centroid[a] - cbox.lo[a]) * scale));
+        bins[b].count++;
+        bins[b].box.grow(refs[i].box);
+      }
+      // Sweep from the right for the right-side areas, then from the left.
+      std::array<double, kBins> right_area{};
+      std::array<int, kBins> right_count{};
+      Box acc;
+      int count = 0;
+      for (int b = kBins - 1; b > 0; --b) {
+        acc.grow(bins[b].box);
+        count += bins[b].count;
+        right_area[b] = acc.half_area();
+        right_count[b] = count;
+      }
+      acc = Box();
+      count = 0;
+      for (int b = 0; b < kBins - 1; ++b) {
+        acc.grow(bins[b].box);
+        count += bins[b].count;
+        if (count == 0 || right_count[b + 1] == 0) continue;
+        double cost = acc.half_area() * count + right_area[b + 1] * right_count[b + 1];
+        if (cost < best_cost) {
+          best_cost = cost;
+          best_axis = a;
+          best_bin = b;
+        }
+      }
+    }
+    double area = box.half_area();
+    double leaf_cost = static_cast<double>(n);
+    if (best_axis < 0) {
+      // All centroids coincide: no SAH split separates them.
+      if (n <= kMaxLeafSize) return -1;
+      return median_split(begin, end, cbox, axis);
+    }
+    double split_cost = kTraversalCost + (area > 0 ? best_cost / area : static_cast<double>(n));
+    if (n <= kMaxLeafSize && leaf_cost <= split_cost) return -1;
+    double extent = cbox.hi[best_axis] - cbox.lo[best_axis];
+    double scale = kBins / extent;
+    double lo = cbox.lo[best_axis];
+    int a = best_axis, split = best_bin;
+    auto it = std::partition(refs.begin() + begin, refs.begin() + end, [&](const PrimRef& r) {
+      return std::min(kBins - 1, static_cast<int>((r.centroid[a] - lo) * scale)) <= split;
+    });
+    *axis = a;
+    return static_cast<int>(it - refs.begin());
+  }
+};
+
+inline int hardware_threads(int requested) {
+  if (requested > 0) return requested;
+  unsigned n = std::thread::hardware_concurrency();
+  return n > 0 ? static_cast<int>(n) : 1;
+}
+
+}  // namespace detail
+
+// Builds the BVH of ps's spheres and triangles into ps.bvh_nodes / ps.bvh_prims and
+// switches it on (params.n_bvh_nodes, the TR_F_BVH feature bit). Replaces any BVH
+// already there.
+template <class T>
+void build(PackedScene<T>& ps, int threads = 0) {
+  using Node = typename device::Code<T>::BvhNode;
+  const int n_spheres = static_cast<int>(ps.spheres.size());
+  const int n = n_spheres + static_cast<int>(ps.triangles.size());
+  ps.bvh_nodes.clear();
+  ps.bvh_prims.clear();
+  if (n > 0) {
+    std::vector<PrimRef> refs(static_cast<size_t>(n));
+    int n_threads = detail::hardware_threads(threads);
+    auto fill = [&](int begin, int end) {
+      for (int i = begin; i < end; ++i) {
+        PrimRef& r = refs[static_cast<size_t>(i)];
+        r.id = i;
+        r.box = Box();
+        if (i < n_spheres) {
+          const auto& s = ps.spheres[static_cast<size_t>(i)];
+          double c[3] = {s.cx, s.cy, s.cz}, rad = s.radius;
+          for (int a = 0; a < 3; ++a) {
+            r.box.lo[a] = c[a] - rad;
+            r.box.hi[a] = c[a] + rad;
+          }
+        } else {
+          const auto& t = ps.triangles[static_cast<size_t>(i - n_spheres)];
+          double p[3][3] = {{t.p0x, t.p0y, t.p0z}, {t.p1x, t.p1y, t.p1z}, {t.p2x, t.p2y, t.p2z}};
+          for (auto& v : p) r.box.grow(v);
+        }
+        for (int a = 0; a < 3; ++a) r.centroid[a] = 0.5 * (r.box.lo[a] + r.box.hi[a]);
+      }
+    };
+    if (n >= kParallelMinPrims && n_threads > 1) {
+      std::vector<std::thread> pool;
+      int chunk = (n + n_threads - 1) / n_threads;
+      for (int t = 1; t < n_threads; ++t)
+        pool.emplace_back(fill, std::min(n, t * chunk), std::min(n, (t + 1) * chunk));
+      fill(0, std::min(n, chunk));
+      for (auto& th : pool) th.join();
+    } else {
+      fill(0, n);
+    }
+    detail::Builder<Node> builder(refs, n_threads);
+    ps.bvh_nodes.reserve(static_cast<size_t>(n));
+    ps.bvh_nodes.emplace_back();
+    builder.build(ps.bvh_nodes, 0, 0, n, 0);
+    ps.bvh_prims.resize(static_cast<size_t>(n));
+    for (int i = 0; i < n; ++i)
+      ps.bvh_prims[static_cast<size_t>(i)] = refs[static_cast<size_t>(i)].id;
+  }
+  ps.params.n_bvh_nodes = static_cast<int>(ps.bvh_nodes.size());
+  if (ps.bvh_nodes.empty())
+    ps.features &= ~TR_F_BVH;
+  else
+    ps.features |= TR_F_BVH;
+  ps.params.features = static_cast<int>(ps.features);
+}
+
+// Removes the BVH: spheres and triangles go back to the linear loops.
+template <class T>
+void strip(PackedScene<T>& ps) {
+  ps.bvh_nodes.clear();
+  ps.bvh_prims.clear();
+  ps.params.n_bvh_nodes = 0;
+  ps.features &= ~TR_F_BVH;
+  ps.params.features = static_cast<int>(ps.features);
+}
+
+// Depth, node and leaf counts (for tests and benchmarks).
+template <class Node>
+Stats stats(const std::vector<Node>& nodes) {
+  Stats st;
+  if (nodes.empty()) return st;
+  st.nodes = static_cast<int>(nodes.size());
+  std::vector<std::pair<int, int>> todo{{0, 0}};
+  while (!todo.empty()) {
+    auto [i, d] = todo.back();
+    todo.pop_back();
+    const Node& node = nodes[static_cast<size_t>(i)];
+    if (node.count > 0) {
+      st.leaves++;
+      st.max_depth = std::max(st.max_depth, d);
+      st.max_leaf = std::max(st.max_leaf, node.count);
+    } else {
+      todo.push_back({node.first, d + 1});
+      todo.push_back({node.first + 1, d + 1});
+    }
+  }
+  return st;
+}
+
+}  // namespace bvh
+}  // namespace twinray
