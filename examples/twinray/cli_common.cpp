@@ -1,0 +1,358 @@
+// The shared helpers of the `twinray` command (cli_common.hpp), compiled once for
+// float and double.
+#include "cli_common.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cstdio>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include <sys/ioctl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <twinray/core/validate.hpp>
+#include <twinray/io/atomic_file.hpp>
+#include <twinray/io/pfm.hpp>
+#include <twinray/io/png.hpp>
+
+#include "demo_scene.hpp"
+
+namespace twinray_cli {
+
+using twinray::Error;
+using twinray::ErrorKind;
+
+int exit_status(ErrorKind kind) {
+  switch (kind) {
+    case ErrorKind::InvalidInput:
+      return kExitBadInput;
+    case ErrorKind::BackendUnavailable:
+      return kExitBackendUnavailable;
+    case ErrorKind::RuntimeFailure:
+      break;
+  }
+  return kExitRuntimeFailure;
+}
+
+void usage_error(const std::string& message) {
+  throw twinray::invalid_input(message);
+}
+
+// ---- options ----
+
+namespace {
+// A CLI11 check for --terms: a comma-separated subset of ambient, diffuse, specular.
+CLI::Validator terms_validator() {
+  return CLI::Validator(
+      [](std::string& value) -> std::string {
+        try {
+          parse_terms(value);
+        } catch (const Error& e) {
+          return e.what();
+        }
+        return "";
+      },
+      "TERMS");
+}
+}  // namespace
+
+void add_shared_options(CLI::App& app, SharedOptions& o, unsigned extras) {
+  using twinray::Limits;
+  app.add_option("--backend", o.backend,
+                 "cpu, opencl, or auto (OpenCL when a device exists, else the CPU)")
+      ->check(CLI::IsMember({"cpu", "opencl", "auto"}))
+      ->capture_default_str();
+  app.add_option("--device", o.device, "OpenCL device index, as `twinray info` lists them")
+      ->check(CLI::Range(0, 1 << 20));
+  app.add_option("--precision", o.precision, "scalar type of the whole render")
+      ->check(CLI::IsMember({"float", "double"}))
+      ->capture_default_str();
+  app.add_option("--width", o.width, "image width in pixels (overrides the scene)")
+      ->check(CLI::Range(1, Limits::max_image_side));
+  app.add_option("--height", o.height, "image height in pixels (overrides the scene)")
+      ->check(CLI::Range(1, Limits::max_image_side));
+  app.add_option("--spp", o.spp, "samples per pixel (overrides the scene)")
+      ->check(CLI::Range(1, Limits::max_spp));
+  app.add_option("--max-depth", o.max_depth, "reflection depth; 1 = no reflected rays")
+      ->check(CLI::Range(1, Limits::max_depth));
+  app.add_option("--camera", o.camera, "projection: perspective or orthographic")
+      ->check(CLI::IsMember({"perspective", "orthographic"}));
+  app.add_flag("--no-shadows", o.no_shadows, "trace no shadow rays");
+  app.add_flag("--no-glaze", o.no_glaze, "trace no reflected rays");
+  app.add_option("--terms", o.terms,
+                 "shading terms that are on, comma-separated: ambient,diffuse,specular")
+      ->check(terms_validator());
+  if (extras & kOptionFrame)
+    app.add_option("--frame", o.frame, "render frame K of the scene's animation")
+        ->check(CLI::Range(0, 1 << 30));
+  app.add_option("--threads", o.threads, "CPU backend threads (default: all cores)")
+      ->check(CLI::Range(1, 4096));
+  if (extras & kOptionAov)
+    app.add_option("--aov", o.aov,
+                   "write, as PFM, instead of the shaded image: depth (primary hit "
+                   "distance, inf for no hit), normal (geometric normal, 0 for no hit) or "
+                   "object (object index, -1 for no hit)")
+        ->check(CLI::IsMember({"depth", "normal", "object"}));
+  app.add_flag("--quiet", o.quiet, "no progress bar");
+}
+
+twinray::Backend parse_backend(const std::string& name) {
+  if (name == "cpu") return twinray::Backend::Cpu;
+  if (name == "opencl") return twinray::Backend::OpenCL;
+  if (name == "auto") return twinray::Backend::Auto;
+  usage_error("--backend: must be cpu, opencl or auto, got \"" + name + "\"");
+}
+
+unsigned parse_terms(const std::string& list) {
+  unsigned terms = 0;
+  std::stringstream ss(list);
+  std::string term;
+  if (list.empty()) usage_error("--terms: give at least one of ambient, diffuse, specular");
+  while (std::getline(ss, term, ',')) {
+    unsigned bit = term == "ambient"    ? twinray::kAmbient
+                   : term == "diffuse"  ? twinray::kDiffuse
+                   : term == "specular" ? twinray::kSpecular
+                                        : 0u;
+    if (bit == 0)
+      usage_error("--terms: unknown term \"" + term +
+                  "\"; the terms are ambient, diffuse and specular, comma-separated");
+    if (terms & bit) usage_error("--terms: \"" + term + "\" is given twice");
+    terms |= bit;
+  }
+  if (list.back() == ',') usage_error("--terms: empty term after the last comma");
+  return terms;
+}
+
+// ---- scenes ----
+
+template <class T>
+twinray::io::SceneFile<T> load_scene_arg(const std::string& scene) {
+  if (scene == "demo") {
+    demo::DemoSetup<T> d = demo::make_demo_scene<T>();
+    twinray::io::SceneFile<T> f;
+    f.scene = d.scene;
+    f.camera = d.camera;
+    f.material_names = {"green", "cyan", "dark_blue", "lime", "magenta"};
+    f.path = "demo";
+    return f;
+  }
+  return twinray::io::load_scene<T>(scene);
+}
+
+template <class T>
+void apply_shared_options(twinray::io::SceneFile<T>& f, const SharedOptions& o) {
+  twinray::RenderOptions& r = f.options;
+  r.backend = parse_backend(o.backend);
+  r.device = o.device;
+  r.threads = o.threads;
+  if (o.width > 0) f.camera.width = o.width;
+  if (o.height > 0) f.camera.height = o.height;
+  if (o.spp > 0) r.spp = o.spp;
+  if (o.max_depth > 0) r.max_depth = o.max_depth;
+  if (!o.camera.empty())
+    f.camera.projection = o.camera == "orthographic" ? twinray::Projection::Orthographic
+                                                     : twinray::Projection::Perspective;
+  if (o.no_shadows) r.shadows = false;
+  if (o.no_glaze) r.glaze = false;
+  if (!o.terms.empty()) r.terms = parse_terms(o.terms);
+  if (!o.aov.empty())
+    r.output = o.aov == "depth"    ? twinray::Output::Depth
+               : o.aov == "normal" ? twinray::Output::Normal
+                                   : twinray::Output::ObjectIndex;
+  if (o.frame >= 0) {
+    if (f.animation.is_null())
+      usage_error("--frame " + std::to_string(o.frame) + ": " + f.path +
+                  " has no animation (no \"animation\" key)");
+    usage_error("--frame " + std::to_string(o.frame) + ": " + f.path +
+                " has an animation, but this build of twinray cannot play animations yet");
+  }
+  long long pixels = static_cast<long long>(f.camera.width) * f.camera.height;
+  if ((o.width > 0 || o.height > 0) && pixels > twinray::Limits::max_pixels)
+    usage_error("--width/--height: " + std::to_string(f.camera.width) + " x " +
+                std::to_string(f.camera.height) + " is more than the limit of " +
+                std::to_string(twinray::Limits::max_pixels) + " pixels");
+  try {
+    twinray::validate(f.camera);
+    twinray::validate(f.scene);
+    twinray::validate(f.options);
+  } catch (const Error& e) {
+    throw twinray::invalid_input(f.path + ": " + e.what());
+  }
+}
+
+template <class T>
+twinray::io::SceneFile<T> prepare_scene(const std::string& scene, const SharedOptions& o) {
+  twinray::io::SceneFile<T> f = load_scene_arg<T>(scene);
+  apply_shared_options(f, o);
+  return f;
+}
+
+// ---- outputs ----
+
+ImageFormat check_output_path(const std::string& path, bool pfm_only, const std::string& option) {
+  if (path.empty()) usage_error(option + ": the output path is empty");
+  size_t slash = path.find_last_of('/');
+  size_t dot = path.find_last_of('.');
+  std::string ext = dot == std::string::npos || (slash != std::string::npos && dot < slash)
+                        ? ""
+                        : path.substr(dot);
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  ImageFormat format;
+  if (ext == ".png")
+    format = ImageFormat::Png;
+  else if (ext == ".pfm")
+    format = ImageFormat::Pfm;
+  else if (ext == ".ppm")
+    format = ImageFormat::Ppm;
+  else
+    usage_error(option + " " + path + ": unknown image format \"" + ext +
+                "\"; the output's extension must be .png, .pfm or .ppm");
+  if (pfm_only && format != ImageFormat::Pfm)
+    usage_error(option + " " + path +
+                ": --aov writes 32-bit float values; the output must be .pfm");
+  std::string folder =
+      slash == std::string::npos ? "." : (slash == 0 ? "/" : path.substr(0, slash));
+  struct stat st {};
+  if (::stat(folder.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
+    usage_error(option + " " + path + ": the folder " + folder + " does not exist");
+  return format;
+}
+
+template <class T>
+void write_image(const std::string& path, const twinray::Image<T>& image) {
+  switch (check_output_path(path, false)) {
+    case ImageFormat::Png:
+      twinray::io::write_png(path, image);
+      return;
+    case ImageFormat::Pfm:
+      twinray::io::write_pfm(path, image);
+      return;
+    case ImageFormat::Ppm: {
+      // Binary PPM (P6), 8-bit, converted like PNG (clamp, scale by 255, round).
+      std::string header =
+          "P6\n" + std::to_string(image.width) + " " + std::to_string(image.height) + "\n255\n";
+      std::vector<unsigned char> bytes(header.begin(), header.end());
+      std::vector<unsigned char> rgb = twinray::io::to_rgb8(image);
+      bytes.insert(bytes.end(), rgb.begin(), rgb.end());
+      twinray::io::write_file_atomically(path, bytes);
+      return;
+    }
+  }
+}
+
+// ---- progress ----
+
+bool stderr_is_terminal() {
+  return ::isatty(STDERR_FILENO) == 1;
+}
+
+Progress::Progress(std::string label, long long total, bool enabled)
+    : label_(std::move(label)),
+      total_(total),
+      enabled_(enabled),
+      start_(std::chrono::steady_clock::now()) {
+  if (enabled_) thread_ = std::thread([this] { loop(); });
+}
+
+Progress::~Progress() {
+  finish();
+}
+
+void Progress::set(long long done) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  done_ = done;
+}
+
+void Progress::set_label(const std::string& label) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  label_ = label;
+}
+
+void Progress::note(const std::string& line) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (enabled_ && !finished_) std::fputs("\r\033[K", stderr);
+  std::fprintf(stderr, "twinray: %s\n", line.c_str());
+  if (enabled_ && !finished_) draw_locked();
+  std::fflush(stderr);
+}
+
+void Progress::finish() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (finished_) return;
+    finished_ = true;
+    if (enabled_) {
+      std::fputs("\r\033[K", stderr);
+      std::fflush(stderr);
+    }
+  }
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void Progress::loop() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (!finished_) {
+    draw_locked();
+    wake_.wait_for(lock, std::chrono::milliseconds(100));
+  }
+}
+
+void Progress::draw_locked() {
+  int columns = 80;
+  winsize ws{};
+  if (::ioctl(STDERR_FILENO, TIOCGWINSZ, &ws) == 0 && ws.ws_col > 0) columns = ws.ws_col;
+  double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  std::ostringstream tail;
+  tail << std::fixed << std::setprecision(1);
+  if (total_ > 0)
+    tail << " " << std::min(done_, total_) << "/" << total_ << "  " << seconds << " s";
+  else
+    tail << "  " << seconds << " s";
+  int bar = std::max(10, std::min(40, columns - static_cast<int>(label_.size()) -
+                                          static_cast<int>(tail.str().size()) - 4));
+  std::string cells(static_cast<size_t>(bar), ' ');
+  if (total_ > 0) {
+    int filled = static_cast<int>(static_cast<double>(bar) * std::min(done_, total_) / total_);
+    std::fill(cells.begin(), cells.begin() + filled, '#');
+  } else {
+    // A block of four bouncing from end to end, one cell per redraw.
+    int span = bar - 4, step = static_cast<int>(seconds * 10) % (2 * span);
+    int at = step < span ? step : 2 * span - step;
+    std::fill(cells.begin() + at, cells.begin() + at + 4, '#');
+  }
+  std::string line = label_ + " [" + cells + "]" + tail.str();
+  if (static_cast<int>(line.size()) >= columns) line.resize(static_cast<size_t>(columns - 1));
+  std::fputs(("\r\033[K" + line).c_str(), stderr);
+  std::fflush(stderr);
+}
+
+std::string summary_line(const std::string& output, int width, int height, int spp,
+                         const std::string& precision, const std::string& what,
+                         const twinray::RenderInfo& info, double total_ms) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(1);
+  s << output << ": " << what << ", " << width << "x" << height << ", " << spp << " spp, "
+    << precision << ", backend " << twinray::to_string(info.backend) << " (" << info.device
+    << "), render " << info.render_ms << " ms";
+  if (info.backend == twinray::Backend::OpenCL)
+    s << ", program " << (info.program_cached ? "cached " : "build ") << info.build_ms << " ms";
+  s << ", total " << total_ms << " ms";
+  return s.str();
+}
+
+// ---- instantiations ----
+#define TWINRAY_CLI_INSTANTIATE(T)                                                               \
+  template twinray::io::SceneFile<T> load_scene_arg<T>(const std::string&);                      \
+  template void apply_shared_options<T>(twinray::io::SceneFile<T>&, const SharedOptions&);       \
+  template twinray::io::SceneFile<T> prepare_scene<T>(const std::string&, const SharedOptions&); \
+  template void write_image<T>(const std::string&, const twinray::Image<T>&);
+TWINRAY_CLI_INSTANTIATE(float)
+TWINRAY_CLI_INSTANTIATE(double)
+#undef TWINRAY_CLI_INSTANTIATE
+
+}  // namespace twinray_cli

@@ -1,0 +1,153 @@
+// What the subcommands of `twinray` share (CLI.md): the render options of render /
+// movie / view, loading SCENE (a scene file or `demo`) with those options applied,
+// rendering, writing images atomically, the progress bar and the exit statuses.
+//
+// A subcommand that renders does, in its Run:
+//   return twinray_cli::with_precision(opts, [&](auto zero) {
+//     using T = decltype(zero);
+//     twinray::io::SceneFile<T> f = twinray_cli::prepare_scene<T>(scene, opts);
+//     twinray::Image<T> image = twinray_cli::render_scene(f, &info);
+//     ...
+//   });
+// Everything here is compiled once (cli_common.cpp, render_call.cpp) for float and
+// double, so a cmd_*.cpp stays quick to compile.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include <CLI/CLI.hpp>
+#include <twinray/core/error.hpp>
+#include <twinray/core/image.hpp>
+#include <twinray/core/options.hpp>
+#include <twinray/io/scene_json.hpp>
+
+namespace twinray_cli {
+
+// ---- exit statuses (CLI.md) ----
+enum ExitStatus {
+  kExitOk = 0,
+  kExitRuntimeFailure = 1,
+  kExitBadInput = 2,  // bad command line or bad scene
+  kExitBackendUnavailable = 3,
+};
+int exit_status(twinray::ErrorKind kind);
+
+// A bad command line: exit status 2, the message names the option.
+[[noreturn]] void usage_error(const std::string& message);
+
+// ---- the options shared by render / movie / view ----
+struct SharedOptions {
+  std::string backend = "auto";  // cpu | opencl | auto
+  int device = -1;               // OpenCL device index; -1 = the first
+  std::string precision = "float";
+  int width = 0, height = 0;  // 0: the scene's
+  int spp = 0;                // 0: the scene's
+  int max_depth = 0;          // 0: the scene's
+  std::string camera;         // "", perspective, orthographic
+  bool no_shadows = false;
+  bool no_glaze = false;
+  std::string terms;  // "": the scene's; else comma-separated ambient,diffuse,specular
+  int frame = -1;     // --frame K; -1: not given
+  int threads = 0;    // 0: all cores
+  std::string aov;    // "", depth, normal, object
+  bool quiet = false;
+};
+
+// Which of the options that only some subcommands take to add.
+enum SharedOptionExtras : unsigned {
+  kOptionFrame = 1u,  // --frame K
+  kOptionAov = 2u,    // --aov depth|normal|object
+};
+
+void add_shared_options(CLI::App& app, SharedOptions& options, unsigned extras = 0);
+
+twinray::Backend parse_backend(const std::string& name);
+// "ambient,diffuse" -> kAmbient | kDiffuse; throws InvalidInput naming --terms.
+unsigned parse_terms(const std::string& list);
+
+// ---- scenes ----
+// SCENE as given on the command line: a scene file, or `demo` for the seed's demo scene
+// (examples/demo_scene.hpp; a file named demo is read as ./demo).
+template <class T>
+twinray::io::SceneFile<T> load_scene_arg(const std::string& scene);
+
+// Applies the command-line overrides to a loaded scene and checks the result.
+template <class T>
+void apply_shared_options(twinray::io::SceneFile<T>& file, const SharedOptions& options);
+
+// load_scene_arg + apply_shared_options.
+template <class T>
+twinray::io::SceneFile<T> prepare_scene(const std::string& scene, const SharedOptions& options);
+
+// Calls f(T{}) with T the --precision type and returns its result.
+template <class F>
+int with_precision(const SharedOptions& options, F&& f) {
+  if (options.precision == "double") return f(double{});
+  return f(float{});
+}
+
+// render() on a prepared scene (render_call.cpp, the one translation unit that
+// instantiates the renderer).
+template <class T>
+twinray::Image<T> render_scene(const twinray::io::SceneFile<T>& file, twinray::RenderInfo* info);
+
+// ---- output images ----
+enum class ImageFormat { Png, Pfm, Ppm };
+
+// The format of an output path from its extension, checked before any rendering:
+// .png, .pfm or .ppm (only .pfm when `pfm_only`), in a folder that exists.
+// `option` names the option in messages (e.g. "-o").
+ImageFormat check_output_path(const std::string& path, bool pfm_only,
+                              const std::string& option = "-o");
+
+// Writes atomically (temporary file + rename): complete or absent.
+template <class T>
+void write_image(const std::string& path, const twinray::Image<T>& image);
+
+// ---- progress and notes on stderr ----
+bool stderr_is_terminal();
+
+// A progress bar on stderr, drawn only when enabled (use Progress::wanted(quiet):
+// stderr is a terminal and --quiet was not given). total > 0: a bar of done / total;
+// total == 0: an activity bar with the elapsed time, for work that reports no
+// fraction. Redrawn by its own thread ten times a second; cleared by finish().
+class Progress {
+ public:
+  Progress(std::string label, long long total, bool enabled);
+  ~Progress();
+  Progress(const Progress&) = delete;
+  Progress& operator=(const Progress&) = delete;
+
+  static bool wanted(bool quiet) { return !quiet && stderr_is_terminal(); }
+
+  void set(long long done);
+  void set_label(const std::string& label);
+  // Prints one line on stderr (prefixed "twinray: "), above the bar.
+  void note(const std::string& line);
+  void finish();
+
+ private:
+  void draw_locked();
+  void loop();
+
+  std::string label_;
+  long long total_ = 0, done_ = 0;
+  bool enabled_ = false, finished_ = false;
+  std::chrono::steady_clock::time_point start_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::thread thread_;
+};
+
+// The one summary line of a render (CLI.md): output, size, spp, precision, backend,
+// device, times.
+std::string summary_line(const std::string& output, int width, int height, int spp,
+                         const std::string& precision, const std::string& what,
+                         const twinray::RenderInfo& info, double total_ms);
+
+}  // namespace twinray_cli

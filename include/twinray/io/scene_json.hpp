@@ -1,0 +1,703 @@
+// load_scene(): a twinray scene file (shared/SCENE_FORMAT.md, JSON) as the core's
+// Scene<T>, Camera<T> and RenderOptions, through nlohmann-json (Debian
+// nlohmann-json3-dev).
+//
+//   twinray::io::SceneFile<float> f = twinray::io::load_scene<float>("scene.json");
+//   twinray::Image<float> image = twinray::render(f.scene, f.camera, f.options);
+//
+// Strict: every key is known, every value has the right type, length and range, and
+// every name and index resolves, or the load throws twinray::Error(InvalidInput) with
+// the message `FILE: JSON.PATH: problem`, e.g.
+//   scene.json: objects[3].radius: must be > 0, got -1
+// Limits (SceneLimits) hold before anything large is allocated: the file size before
+// it is read, the nesting depth and the number of JSON values while it is parsed, the
+// image size, and the object, vertex and triangle counts before the scene is built.
+// docs/cli.md lists every check.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <set>
+#include <sstream>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include <twinray/core/error.hpp>
+#include <twinray/core/options.hpp>
+#include <twinray/core/validate.hpp>
+#include <twinray/io/obj_mesh.hpp>
+#include <twinray/scene/camera.hpp>
+#include <twinray/scene/scene.hpp>
+
+namespace twinray {
+namespace io {
+
+// The scene format version this loader reads (the file's "twinray" key).
+constexpr int kSceneFormatVersion = 1;
+
+struct SceneLimits {
+  long long max_file_bytes = 64ll << 20;      // the JSON text
+  int max_nesting = 64;                       // arrays and objects inside each other
+  long long max_json_values = 1ll << 22;      // numbers, strings, ... in the whole file
+  long long max_objects = 1ll << 20;          // entries of `objects`
+  long long max_materials = 1ll << 16;        // named and inline materials
+  long long max_lights = 1ll << 16;           // entries of `lights`
+  long long max_mesh_vertices = 1ll << 24;    // per mesh, inline or OBJ
+  long long max_total_triangles = 1ll << 24;  // triangles of all meshes and triangles
+  long long max_obj_file_bytes = 256ll << 20;
+};
+
+// Everything a scene file holds.
+template <class T>
+struct SceneFile {
+  Scene<T> scene;
+  Camera<T> camera;
+  RenderOptions options;  // spp, max_depth, shadows, glaze, terms from `render`
+  // Name of each entry of scene.materials: the key in `materials`, or the JSON path of
+  // an inline material (`objects[2].material`).
+  std::vector<std::string> material_names;
+  // The `animation` object as written (null when absent). Its keys are defined and
+  // checked by the code that plays animations (`twinray movie`, `--frame`).
+  nlohmann::ordered_json animation;
+  std::string path;  // the file as named by the caller
+};
+
+namespace detail {
+
+using Json = nlohmann::ordered_json;
+
+// Levenshtein distance, for "did you mean" on unknown keys and names.
+inline size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diagonal = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = up;
+    }
+  }
+  return row[b.size()];
+}
+
+// " (did you mean \"x\"?)" when one candidate is close, else "".
+inline std::string suggestion(const std::string& got, const std::vector<std::string>& candidates) {
+  std::string best;
+  size_t best_distance = std::max<size_t>(2, got.size() / 3) + 1;
+  for (const std::string& c : candidates) {
+    size_t d = edit_distance(got, c);
+    if (d < best_distance) best_distance = d, best = c;
+  }
+  return best.empty() ? "" : " (did you mean \"" + best + "\"?)";
+}
+
+inline std::string join(const std::vector<std::string>& items) {
+  std::string s;
+  for (size_t i = 0; i < items.size(); ++i) s += (i ? ", " : "") + items[i];
+  return s;
+}
+
+// A JSON value as a short string for messages.
+inline std::string show(const Json& v) {
+  std::string s = v.dump();
+  if (s.size() > 40) s = s.substr(0, 37) + "...";
+  return s;
+}
+
+inline std::string kind_of(const Json& v) {
+  if (v.is_number()) return "a number (" + show(v) + ")";
+  if (v.is_string()) return "a string (" + show(v) + ")";
+  if (v.is_boolean()) return std::string("a boolean (") + (v.get<bool>() ? "true" : "false") + ")";
+  if (v.is_null()) return "null";
+  if (v.is_array()) return "an array of " + std::to_string(v.size());
+  return "an object";
+}
+
+// Tracks the JSON path while nlohmann parses, to refuse duplicate keys and deep
+// nesting as they are read and to say where a syntax error is.
+class PathTracker {
+ public:
+  PathTracker(const SceneLimits& limits, std::string file) : limits_(limits), file_(file) {}
+
+  bool on_event(Json::parse_event_t event, Json& parsed) {
+    using E = Json::parse_event_t;
+    switch (event) {
+      case E::object_start:
+      case E::array_start:
+        begin_element();
+        if (static_cast<int>(frames_.size()) >= limits_.max_nesting)
+          fail(path() + (frames_.empty() ? "" : ": ") + "nested deeper than " +
+               std::to_string(limits_.max_nesting) + " levels");
+        frames_.push_back(Frame{event == E::array_start, -1, "", {}});
+        break;
+      case E::key: {
+        Frame& f = frames_.back();
+        f.key = parsed.get<std::string>();
+        if (!f.keys.insert(f.key).second) fail(path() + ": duplicate key");
+        break;
+      }
+      case E::value:
+        begin_element();
+        if (++values_ > limits_.max_json_values)
+          fail(path() + ": more than " + std::to_string(limits_.max_json_values) +
+               " JSON values in one file (put large meshes in an .obj file)");
+        break;
+      case E::object_end:
+      case E::array_end:
+        frames_.pop_back();
+        break;
+    }
+    return true;
+  }
+
+  // The path of the value being read, `objects[3].radius`.
+  std::string path() const {
+    std::string p;
+    for (const Frame& f : frames_) {
+      if (f.array) {
+        if (f.index >= 0) p += "[" + std::to_string(f.index) + "]";
+      } else if (!f.key.empty()) {
+        p += (p.empty() ? "" : ".") + f.key;
+      }
+    }
+    return p;
+  }
+
+ private:
+  struct Frame {
+    bool array;
+    long long index;
+    std::string key;
+    std::set<std::string> keys;
+  };
+  void begin_element() {
+    if (!frames_.empty() && frames_.back().array) ++frames_.back().index;
+  }
+  [[noreturn]] void fail(const std::string& problem) const {
+    throw invalid_input(file_ + ": " + problem);
+  }
+
+  const SceneLimits& limits_;
+  std::string file_;
+  std::vector<Frame> frames_;
+  long long values_ = 0;
+};
+
+// 1-based line and column of a byte offset.
+inline std::string line_column(const std::string& text, size_t byte) {
+  size_t line = 1, column = 1;
+  for (size_t i = 0; i < byte && i < text.size(); ++i) {
+    if (text[i] == '\n')
+      ++line, column = 1;
+    else
+      ++column;
+  }
+  return "line " + std::to_string(line) + ", column " + std::to_string(column);
+}
+
+// Parses JSON text strictly: syntax, duplicate keys, nesting, value count.
+inline Json parse_json(const std::string& text, const std::string& file,
+                       const SceneLimits& limits) {
+  PathTracker tracker(limits, file);
+  try {
+    return Json::parse(
+        text,
+        [&](int, Json::parse_event_t event, Json& parsed) {
+          return tracker.on_event(event, parsed);
+        },
+        /*allow_exceptions=*/true, /*ignore_comments=*/false);
+  } catch (const Json::parse_error& e) {
+    // e.what(): "[json.exception.parse_error.101] parse error at line 3, column 5: syntax
+    // error while parsing object - unexpected '}'; expected string literal"
+    std::string what = e.what();
+    size_t colon = what.find(": ", what.find("parse error"));
+    std::string detail = colon == std::string::npos ? what : what.substr(colon + 2);
+    std::string where = tracker.path();
+    throw invalid_input(file + ": " + (where.empty() ? "" : where + ": ") + "invalid JSON at " +
+                        line_column(text, e.byte > 0 ? e.byte - 1 : 0) + ": " + detail);
+  }
+}
+
+template <class T>
+const char* precision_name() {
+  return std::is_same<T, float>::value ? "float" : "double";
+}
+
+// Reads typed values out of the parsed document; every failure names the file and
+// the JSON path.
+template <class T>
+class SceneReader {
+ public:
+  using vec3 = glm::vec<3, T>;
+
+  SceneReader(std::string file, std::string base_dir, const SceneLimits& limits)
+      : file_(std::move(file)), base_dir_(std::move(base_dir)), limits_(limits) {}
+
+  [[noreturn]] void fail(const std::string& path, const std::string& problem) const {
+    throw invalid_input(file_ + ": " + (path.empty() ? "(top level)" : path) + ": " + problem);
+  }
+
+  static std::string key_path(const std::string& parent, const std::string& key) {
+    return parent.empty() ? key : parent + "." + key;
+  }
+  static std::string index_path(const std::string& parent, size_t i) {
+    return parent + "[" + std::to_string(i) + "]";
+  }
+
+  void require_object(const Json& v, const std::string& path) const {
+    if (!v.is_object()) fail(path, "must be an object, got " + kind_of(v));
+  }
+  void require_array(const Json& v, const std::string& path) const {
+    if (!v.is_array()) fail(path, "must be an array, got " + kind_of(v));
+  }
+
+  // Refuses keys outside `allowed`, with a suggestion for a near miss.
+  void check_keys(const Json& object, const std::string& path,
+                  const std::vector<std::string>& allowed) const {
+    for (auto it = object.begin(); it != object.end(); ++it)
+      if (std::find(allowed.begin(), allowed.end(), it.key()) == allowed.end())
+        fail(key_path(path, it.key()),
+             "unknown key" + suggestion(it.key(), allowed) + "; allowed here: " + join(allowed));
+  }
+
+  const Json& require(const Json& object, const std::string& path, const std::string& key) const {
+    auto it = object.find(key);
+    if (it == object.end()) fail(key_path(path, key), "missing (required)");
+    return *it;
+  }
+  const Json* optional(const Json& object, const std::string& key) const {
+    auto it = object.find(key);
+    return it == object.end() ? nullptr : &*it;
+  }
+
+  // A finite JSON number, as double.
+  double number(const Json& v, const std::string& path) const {
+    if (!v.is_number()) fail(path, "must be a number, got " + kind_of(v));
+    double d = v.get<double>();
+    if (!std::isfinite(d)) fail(path, "number out of range (not a finite double): " + show(v));
+    return d;
+  }
+
+  // A number converted to T, refused if it overflows T or leaves [lo, hi].
+  T scalar(const Json& v, const std::string& path, double lo = -INFINITY, double hi = INFINITY,
+           bool lo_open = false) const {
+    double d = number(v, path);
+    T t = static_cast<T>(d);
+    if (!std::isfinite(t))
+      fail(path, show(v) + " overflows " + precision_name<T>() + " (largest " +
+                     format_number(std::numeric_limits<T>::max()) + ")");
+    bool ok = (lo_open ? t > T(lo) : t >= T(lo)) && t <= T(hi);
+    if (!ok) {
+      std::string want = std::isinf(hi)
+                             ? std::string(lo_open ? "> " : ">= ") + format_number(lo)
+                             : "in [" + format_number(lo) + ", " + format_number(hi) + "]";
+      if (lo_open && t == T(0) && d != 0.0)
+        fail(path,
+             "must be " + want + ", got " + show(v) + ", which is 0 in " + precision_name<T>());
+      fail(path, "must be " + want + ", got " + show(v));
+    }
+    return t;
+  }
+
+  long long integer(const Json& v, const std::string& path, long long lo, long long hi) const {
+    std::string want = "an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+    if (!v.is_number()) fail(path, "must be " + want + ", got " + kind_of(v));
+    if (!v.is_number_integer()) fail(path, "must be " + want + ", got " + show(v));
+    bool ok;
+    long long i = 0;
+    if (v.is_number_unsigned()) {
+      unsigned long long u = v.get<unsigned long long>();
+      ok = u <= static_cast<unsigned long long>(hi);
+      i = ok ? static_cast<long long>(u) : 0;
+      ok = ok && i >= lo;
+    } else {
+      i = v.get<long long>();
+      ok = i >= lo && i <= hi;
+    }
+    if (!ok) fail(path, "must be " + want + ", got " + show(v));
+    return i;
+  }
+
+  bool boolean(const Json& v, const std::string& path) const {
+    if (!v.is_boolean()) fail(path, "must be true or false, got " + kind_of(v));
+    return v.get<bool>();
+  }
+
+  std::string string(const Json& v, const std::string& path) const {
+    if (!v.is_string()) fail(path, "must be a string, got " + kind_of(v));
+    return v.get<std::string>();
+  }
+
+  // One of `choices`.
+  std::string choice(const Json& v, const std::string& path,
+                     const std::vector<std::string>& choices) const {
+    std::string s = string(v, path);
+    if (std::find(choices.begin(), choices.end(), s) == choices.end()) {
+      std::vector<std::string> quoted;
+      for (const std::string& c : choices) quoted.push_back("\"" + c + "\"");
+      fail(path, "must be " + join(quoted) + ", got \"" + s + "\"" + suggestion(s, choices));
+    }
+    return s;
+  }
+
+  // An array of exactly three numbers, each in [lo, hi].
+  vec3 vector3(const Json& v, const std::string& path, double lo = -INFINITY,
+               double hi = INFINITY) const {
+    if (!v.is_array() || v.size() != 3)
+      fail(path, "must be an array of 3 numbers, got " + kind_of(v));
+    vec3 out;
+    for (size_t k = 0; k < 3; ++k) out[k] = scalar(v[k], index_path(path, k), lo, hi);
+    return out;
+  }
+  vec3 color(const Json& v, const std::string& path, double hi = 1.0) const {
+    return vector3(v, path, 0.0, hi);
+  }
+
+  static std::string format_number(double v) {
+    std::ostringstream os;
+    os.precision(9);
+    os << v;
+    return os.str();
+  }
+
+  // ---- the sections of a scene file ----
+
+  void read(const Json& root, SceneFile<T>& out) {
+    require_object(root, "");
+    check_keys(
+        root, "",
+        {"twinray", "image", "camera", "render", "materials", "lights", "objects", "animation"});
+    long long version = integer(require(root, "", "twinray"), "twinray", 0, 1 << 30);
+    if (version != kSceneFormatVersion)
+      fail("twinray", "unsupported format version " + std::to_string(version) +
+                          " (this build reads version " + std::to_string(kSceneFormatVersion) +
+                          ")");
+    // The image size first: the largest allocation a render makes.
+    read_image(require(root, "", "image"), out);
+    read_camera(require(root, "", "camera"), out.camera);
+    if (const Json* r = optional(root, "render")) read_render(*r, out.options);
+    if (const Json* m = optional(root, "materials")) read_materials(*m, out);
+    if (const Json* l = optional(root, "lights")) read_lights(*l, out.scene);
+    if (const Json* o = optional(root, "objects")) read_objects(*o, out);
+    if (const Json* a = optional(root, "animation")) {
+      require_object(*a, "animation");
+      out.animation = *a;
+    }
+  }
+
+  void read_image(const Json& image, SceneFile<T>& out) {
+    require_object(image, "image");
+    check_keys(image, "image", {"width", "height", "background"});
+    out.camera.width = static_cast<int>(
+        integer(require(image, "image", "width"), "image.width", 1, Limits::max_image_side));
+    out.camera.height = static_cast<int>(
+        integer(require(image, "image", "height"), "image.height", 1, Limits::max_image_side));
+    long long pixels = static_cast<long long>(out.camera.width) * out.camera.height;
+    if (pixels > Limits::max_pixels)
+      fail("image", "width x height must be at most " + std::to_string(Limits::max_pixels) +
+                        " pixels, got " + std::to_string(out.camera.width) + " x " +
+                        std::to_string(out.camera.height));
+    if (const Json* bg = optional(image, "background"))
+      out.scene.background = color(*bg, "image.background");
+  }
+
+  void read_camera(const Json& camera, Camera<T>& c) {
+    require_object(camera, "camera");
+    check_keys(camera, "camera",
+               {"projection", "position", "look_at", "up", "focal_length", "viewplane_height"});
+    std::string projection = choice(require(camera, "camera", "projection"), "camera.projection",
+                                    {"perspective", "orthographic"});
+    c.projection = projection == "perspective" ? Projection::Perspective : Projection::Orthographic;
+    c.position = vector3(require(camera, "camera", "position"), "camera.position");
+    c.look_at = vector3(require(camera, "camera", "look_at"), "camera.look_at");
+    c.up = vector3(require(camera, "camera", "up"), "camera.up");
+    if (const Json* f = optional(camera, "focal_length"))
+      c.focal_length = scalar(*f, "camera.focal_length", 0.0, INFINITY, true);
+    if (const Json* h = optional(camera, "viewplane_height"))
+      c.viewplane_height = scalar(*h, "camera.viewplane_height", 0.0, INFINITY, true);
+    // The geometry checks (look_at != position, up not parallel to the view direction,
+    // a basis that stays finite) are the core's, which name the same paths.
+    try {
+      validate(c);
+    } catch (const Error& e) {
+      throw invalid_input(file_ + ": " + e.what());
+    }
+  }
+
+  void read_render(const Json& render, RenderOptions& o) {
+    require_object(render, "render");
+    check_keys(render, "render", {"spp", "max_depth", "shadows", "glaze", "terms"});
+    if (const Json* v = optional(render, "spp"))
+      o.spp = static_cast<int>(integer(*v, "render.spp", 1, Limits::max_spp));
+    if (const Json* v = optional(render, "max_depth"))
+      o.max_depth = static_cast<int>(integer(*v, "render.max_depth", 1, Limits::max_depth));
+    if (const Json* v = optional(render, "shadows")) o.shadows = boolean(*v, "render.shadows");
+    if (const Json* v = optional(render, "glaze")) o.glaze = boolean(*v, "render.glaze");
+    if (const Json* v = optional(render, "terms")) {
+      require_array(*v, "render.terms");
+      unsigned terms = 0;
+      for (size_t i = 0; i < v->size(); ++i) {
+        std::string path = index_path("render.terms", i);
+        std::string t = choice((*v)[i], path, {"ambient", "diffuse", "specular"});
+        unsigned bit = t == "ambient" ? kAmbient : t == "diffuse" ? kDiffuse : kSpecular;
+        if (terms & bit) fail(path, "\"" + t + "\" is listed twice");
+        terms |= bit;
+      }
+      o.terms = terms;
+    }
+  }
+
+  Material<T> read_material(const Json& m, const std::string& path) {
+    require_object(m, path);
+    check_keys(m, path, {"color", "ka", "kd", "ks", "shininess", "glaze"});
+    Material<T> mat;
+    if (const Json* v = optional(m, "color")) mat.color = color(*v, key_path(path, "color"));
+    if (const Json* v = optional(m, "ka")) mat.ka = scalar(*v, key_path(path, "ka"), 0.0);
+    if (const Json* v = optional(m, "kd")) mat.kd = scalar(*v, key_path(path, "kd"), 0.0);
+    if (const Json* v = optional(m, "ks")) mat.ks = scalar(*v, key_path(path, "ks"), 0.0);
+    if (const Json* v = optional(m, "shininess"))
+      mat.shininess = scalar(*v, key_path(path, "shininess"), 0.0);
+    if (const Json* v = optional(m, "glaze"))
+      mat.glaze = scalar(*v, key_path(path, "glaze"), 0.0, 1.0);
+    return mat;
+  }
+
+  void read_materials(const Json& materials, SceneFile<T>& out) {
+    require_object(materials, "materials");
+    if (static_cast<long long>(materials.size()) > limits_.max_materials)
+      fail("materials", "more than " + std::to_string(limits_.max_materials) + " materials");
+    for (auto it = materials.begin(); it != materials.end(); ++it) {
+      if (it.key().empty()) fail("materials", "a material name must not be empty");
+      std::string path = key_path("materials", it.key());
+      names_.emplace(it.key(), static_cast<int>(out.scene.materials.size()));
+      out.scene.add_material(read_material(it.value(), path));
+      out.material_names.push_back(it.key());
+    }
+  }
+
+  void read_lights(const Json& lights, Scene<T>& scene) {
+    require_array(lights, "lights");
+    if (static_cast<long long>(lights.size()) > limits_.max_lights)
+      fail("lights", std::to_string(lights.size()) + " lights, more than the limit of " +
+                         std::to_string(limits_.max_lights));
+    for (size_t i = 0; i < lights.size(); ++i) {
+      std::string path = index_path("lights", i);
+      const Json& l = lights[i];
+      require_object(l, path);
+      check_keys(l, path, {"type", "position", "intensity", "color"});
+      choice(require(l, path, "type"), key_path(path, "type"), {"point"});
+      PointLight<T> light;
+      light.position = vector3(require(l, path, "position"), key_path(path, "position"));
+      light.intensity = scalar(require(l, path, "intensity"), key_path(path, "intensity"), 0.0);
+      if (const Json* c = optional(l, "color"))
+        light.color = color(*c, key_path(path, "color"), INFINITY);
+      scene.add_light(light);
+    }
+  }
+
+  // A material name, or an inline material object.
+  int material_ref(const Json& object, const std::string& path, SceneFile<T>& out) {
+    std::string mpath = key_path(path, "material");
+    const Json& m = require(object, path, "material");
+    if (m.is_object()) {
+      if (static_cast<long long>(out.scene.materials.size()) >= limits_.max_materials)
+        fail(mpath, "more than " + std::to_string(limits_.max_materials) + " materials");
+      out.material_names.push_back(mpath);
+      return out.scene.add_material(read_material(m, mpath));
+    }
+    if (!m.is_string())
+      fail(mpath, "must be a material name or a material object, got " + kind_of(m));
+    std::string name = m.get<std::string>();
+    auto it = names_.find(name);
+    if (it == names_.end()) {
+      std::vector<std::string> defined;
+      for (const auto& n : names_) defined.push_back(n.first);
+      fail(mpath,
+           "no material named \"" + name + "\"" + suggestion(name, defined) +
+               (defined.empty() ? "; `materials` defines none" : "; defined: " + join(defined)));
+    }
+    return it->second;
+  }
+
+  void count_triangles(long long n, const std::string& path) {
+    total_triangles_ += n;
+    if (total_triangles_ > limits_.max_total_triangles)
+      fail(path, "the scene has more than " + std::to_string(limits_.max_total_triangles) +
+                     " triangles in all (the limit)");
+  }
+
+  void read_objects(const Json& objects, SceneFile<T>& out) {
+    require_array(objects, "objects");
+    if (static_cast<long long>(objects.size()) > limits_.max_objects)
+      fail("objects", std::to_string(objects.size()) + " objects, more than the limit of " +
+                          std::to_string(limits_.max_objects));
+    out.scene.objects.reserve(objects.size());
+    for (size_t i = 0; i < objects.size(); ++i) {
+      std::string path = index_path("objects", i);
+      const Json& o = objects[i];
+      require_object(o, path);
+      std::string type = choice(require(o, path, "type"), key_path(path, "type"),
+                                {"sphere", "plane", "triangle", "mesh"});
+      if (type == "sphere") {
+        check_keys(o, path, {"type", "center", "radius", "material"});
+        Sphere<T> s;
+        s.center = vector3(require(o, path, "center"), key_path(path, "center"));
+        s.radius =
+            scalar(require(o, path, "radius"), key_path(path, "radius"), 0.0, INFINITY, true);
+        s.material = material_ref(o, path, out);
+        out.scene.add(s);
+      } else if (type == "plane") {
+        check_keys(o, path, {"type", "point", "normal", "material"});
+        Plane<T> p;
+        p.point = vector3(require(o, path, "point"), key_path(path, "point"));
+        p.normal = vector3(require(o, path, "normal"), key_path(path, "normal"));
+        T len = glm::length(p.normal);
+        if (!(len > T(0)) || !std::isfinite(len))
+          fail(key_path(path, "normal"),
+               "must be a non-zero vector of finite length, got " + show(o["normal"]));
+        p.material = material_ref(o, path, out);
+        out.scene.add(p);
+      } else if (type == "triangle") {
+        check_keys(o, path, {"type", "vertices", "material"});
+        std::string vpath = key_path(path, "vertices");
+        const Json& v = require(o, path, "vertices");
+        if (!v.is_array() || v.size() != 3)
+          fail(vpath, "must be an array of 3 points, got " + kind_of(v));
+        count_triangles(1, path);
+        Triangle<T> t;
+        for (size_t k = 0; k < 3; ++k) t.vertices[k] = vector3(v[k], index_path(vpath, k));
+        t.material = material_ref(o, path, out);
+        out.scene.add(t);
+      } else {
+        out.scene.add(read_mesh(o, path, out));
+      }
+    }
+  }
+
+  Mesh<T> read_mesh(const Json& o, const std::string& path, SceneFile<T>& out) {
+    check_keys(o, path, {"type", "vertices", "triangles", "obj", "material"});
+    Mesh<T> mesh;
+    const Json* obj = optional(o, "obj");
+    if (obj) {
+      for (const char* key : {"vertices", "triangles"})
+        if (optional(o, key))
+          fail(key_path(path, key),
+               "a mesh takes either \"obj\" or \"vertices\" and "
+               "\"triangles\", not both");
+      std::string opath = key_path(path, "obj");
+      std::string name = string(*obj, opath);
+      if (name.empty()) fail(opath, "must name an .obj file");
+      std::string file = name[0] == '/' || base_dir_.empty() ? name : base_dir_ + "/" + name;
+#ifdef TWINRAY_WITH_TINYOBJLOADER
+      ObjLimits limits;
+      limits.max_file_bytes = limits_.max_obj_file_bytes;
+      limits.max_vertices = limits_.max_mesh_vertices;
+      limits.max_triangles = limits_.max_total_triangles - total_triangles_;
+      try {
+        mesh = load_obj_mesh<T>(file, limits);
+      } catch (const Error& e) {
+        fail(opath, e.what());
+      }
+#else
+      fail(opath, "cannot read " + file +
+                      ": this build has no OBJ support (link tinyobjloader, Debian "
+                      "libtinyobjloader-dev)");
+#endif
+      count_triangles(static_cast<long long>(mesh.triangles.size()), opath);
+    } else {
+      std::string vpath = key_path(path, "vertices"), tpath = key_path(path, "triangles");
+      const Json& v = require(o, path, "vertices");
+      const Json& t = require(o, path, "triangles");
+      require_array(v, vpath);
+      require_array(t, tpath);
+      if (static_cast<long long>(v.size()) > limits_.max_mesh_vertices)
+        fail(vpath, std::to_string(v.size()) + " vertices, more than the limit of " +
+                        std::to_string(limits_.max_mesh_vertices));
+      if (v.empty()) fail(vpath, "must hold at least 3 points, got none");
+      if (t.empty()) fail(tpath, "must hold at least one index triple, got none");
+      count_triangles(static_cast<long long>(t.size()), tpath);
+      mesh.vertices.reserve(v.size());
+      for (size_t k = 0; k < v.size(); ++k)
+        mesh.vertices.push_back(vector3(v[k], index_path(vpath, k)));
+      mesh.triangles.reserve(t.size());
+      long long n = static_cast<long long>(v.size());
+      for (size_t f = 0; f < t.size(); ++f) {
+        std::string fpath = index_path(tpath, f);
+        const Json& tri = t[f];
+        if (!tri.is_array() || tri.size() != 3)
+          fail(fpath, "must be an array of 3 vertex indices, got " + kind_of(tri));
+        std::array<int, 3> indices{};
+        for (size_t k = 0; k < 3; ++k) {
+          std::string ipath = index_path(fpath, k);
+          const Json& index = tri[k];
+          if (index.is_number_integer() &&
+              (index.is_number_unsigned() || index.get<long long>() >= 0) &&
+              index.get<unsigned long long>() >= static_cast<unsigned long long>(n))
+            fail(ipath, "vertex index " + show(index) + " out of range: the mesh has " +
+                            std::to_string(n) + " vertices (indices 0 to " + std::to_string(n - 1) +
+                            ")");
+          indices[k] = static_cast<int>(integer(index, ipath, 0, n - 1));
+        }
+        mesh.triangles.push_back(indices);
+      }
+    }
+    mesh.material = material_ref(o, path, out);
+    return mesh;
+  }
+
+ private:
+  std::string file_;
+  std::string base_dir_;
+  const SceneLimits& limits_;
+  std::map<std::string, int> names_;
+  long long total_triangles_ = 0;
+};
+
+inline std::string parent_folder(const std::string& path) {
+  size_t slash = path.find_last_of('/');
+  if (slash == std::string::npos) return "";
+  return slash == 0 ? "/" : path.substr(0, slash);
+}
+
+}  // namespace detail
+
+// Reads a scene from JSON text. `file` names it in messages; relative `obj` paths are
+// resolved against `base_dir` (empty: the current folder).
+template <class T>
+SceneFile<T> parse_scene(const std::string& text, const std::string& file,
+                         const std::string& base_dir = "", const SceneLimits& limits = {}) {
+  if (static_cast<long long>(text.size()) > limits.max_file_bytes)
+    throw invalid_input(file + ": " + std::to_string(text.size()) +
+                        " bytes, more than the limit of " + std::to_string(limits.max_file_bytes));
+  detail::Json root = detail::parse_json(text, file, limits);
+  SceneFile<T> out;
+  out.path = file;
+  detail::SceneReader<T> reader(file, base_dir, limits);
+  reader.read(root, out);
+  // The core's own checks, as a last line: the loader's are a superset, so this only
+  // fires if the two ever disagree.
+  try {
+    validate(out.scene);
+    validate(out.options);
+  } catch (const Error& e) {
+    throw invalid_input(file + ": " + e.what());
+  }
+  return out;
+}
+
+// Reads a scene file (size-checked before it is read).
+template <class T>
+SceneFile<T> load_scene(const std::string& path, const SceneLimits& limits = {}) {
+  std::string text = detail::read_small_file(path, limits.max_file_bytes, "a scene file");
+  return parse_scene<T>(text, path, detail::parent_folder(path), limits);
+}
+
+}  // namespace io
+}  // namespace twinray
