@@ -317,6 +317,35 @@ class Context {
     return b.mem;
   }
 
+  // sizeof of every buffer struct as this device's compiler lays it out (kernel
+  // tr_kernel_layout_sizes): TrSphere, TrTriangle, TrPlane, TrMaterial, TrLight,
+  // TrBvhNode, TrParams. Must equal the host's (core/device_code.hpp).
+  std::vector<int> device_struct_sizes(bool use_double) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    bool built = false;
+    double ms = 0;
+    ProgramEntry& entry = program(build_options(info_, TR_F_ALL, use_double), &built, &ms);
+    cl_int err = CL_SUCCESS;
+    cl_kernel kernel = clCreateKernel(entry.program, "tr_kernel_layout_sizes", &err);
+    check(err, "clCreateKernel");
+    std::vector<int> sizes(7, 0);
+    cl_mem out =
+        clCreateBuffer(context_, CL_MEM_WRITE_ONLY, sizes.size() * sizeof(int), nullptr, &err);
+    if (err != CL_SUCCESS) clReleaseKernel(kernel);
+    check(err, "clCreateBuffer");
+    size_t one = 1;
+    err = clSetKernelArg(kernel, 0, sizeof out, &out);
+    if (err == CL_SUCCESS)
+      err = clEnqueueNDRangeKernel(queue_, kernel, 1, nullptr, &one, &one, 0, nullptr, nullptr);
+    if (err == CL_SUCCESS)
+      err = clEnqueueReadBuffer(queue_, out, CL_TRUE, 0, sizes.size() * sizeof(int), sizes.data(),
+                                0, nullptr, nullptr);
+    clReleaseMemObject(out);
+    clReleaseKernel(kernel);
+    check(err, "layout kernel");
+    return sizes;
+  }
+
   cl_command_queue queue() const { return queue_; }
   long long uploads() const { return uploads_; }  // buffer uploads so far (for tests)
 

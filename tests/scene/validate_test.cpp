@@ -1,0 +1,99 @@
+// Bad scenes, cameras and options are refused before rendering, with a message that
+// names the value (the path a scene file would use) and the problem.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <string>
+
+#include <twinray/core/validate.hpp>
+
+using namespace twinray;
+
+namespace {
+template <class F>
+std::string refusal(F&& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    CHECK(e.kind() == ErrorKind::InvalidInput);
+    return e.what();
+  }
+  FAIL("expected a refusal");
+  return "";
+}
+
+Scene<float> one_sphere() {
+  Scene<float> s;
+  s.add_material({});
+  s.add(Sphere<float>{{0, 0, -1}, 0.5f, 0});
+  return s;
+}
+}  // namespace
+
+TEST_CASE("camera refusals name the field") {
+  Camera<float> cam;
+  cam.up = glm::vec3(4, -1, 6);  // parallel to position - look_at
+  CHECK(refusal([&] { validate(cam); }).find("camera.up: must not be parallel") == 0);
+  cam = Camera<float>();
+  cam.up = glm::vec3(0, 0, 0);
+  CHECK(refusal([&] { validate(cam); }) == "camera.up: must be non-zero");
+  cam = Camera<float>();
+  cam.width = 0;
+  CHECK(refusal([&] { validate(cam); }).find("image.width: must be in [1, 65536], got 0") == 0);
+  cam = Camera<float>();
+  cam.height = -3;
+  CHECK(refusal([&] { validate(cam); }).find("image.height") == 0);
+  cam = Camera<float>();
+  cam.look_at = cam.position;
+  CHECK(refusal([&] { validate(cam); }).find("camera.look_at: must differ") == 0);
+  cam = Camera<float>();
+  cam.position.x = NAN;
+  CHECK(refusal([&] { validate(cam); }).find("camera.position: must be finite") == 0);
+  cam = Camera<float>();
+  cam.focal_length = -1.0f;
+  CHECK(refusal([&] { validate(cam); }) == "camera.focal_length: must be > 0, got -1");
+  cam = Camera<float>();
+  cam.width = 65536, cam.height = 65536;
+  CHECK(refusal([&] { validate(cam); }).find("image: width x height must be at most") == 0);
+  CHECK_NOTHROW(validate(Camera<float>()));
+}
+
+TEST_CASE("scene refusals name the object and the problem") {
+  Scene<float> s = one_sphere();
+  std::get<Sphere<float>>(s.objects[0]).radius = -1;
+  CHECK(refusal([&] { validate(s); }) == "objects[0].radius: must be > 0, got -1");
+  s = one_sphere();
+  s.add(Plane<float>{{0, 1, 0}, {0, 0, 0}, 0});
+  CHECK(refusal([&] { validate(s); }) == "objects[1].normal: must be non-zero, got [0, 0, 0]");
+  s = one_sphere();
+  s.add(Sphere<float>{{0, 0, 0}, 1, 3});
+  CHECK(refusal([&] { validate(s); }) ==
+        "objects[1].material: no material with index 3 (1 defined)");
+  s = one_sphere();
+  Mesh<float> m;
+  m.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  m.triangles = {{0, 1, 3}};
+  s.add(m);
+  CHECK(refusal([&] { validate(s); }) ==
+        "objects[1].triangles[0][2]: vertex index 3 out of range (3 vertices)");
+  s = one_sphere();
+  s.materials[0].glaze = 1.5f;
+  CHECK(refusal([&] { validate(s); }) == "materials[0].glaze: must be in [0, 1], got 1.5");
+  s = one_sphere();
+  s.add_light({{0, 0, 0}, -2.f, {1, 1, 1}});
+  CHECK(refusal([&] { validate(s); }) == "lights[0].intensity: must be >= 0, got -2");
+  s = one_sphere();
+  s.add(Triangle<float>{{glm::vec3(0), glm::vec3(INFINITY, 0, 0), glm::vec3(0, 1, 0)}, 0});
+  CHECK(refusal([&] { validate(s); }).find("objects[1].vertices[1]: must be finite") == 0);
+  CHECK_NOTHROW(validate(one_sphere()));
+}
+
+TEST_CASE("option refusals") {
+  RenderOptions o;
+  o.spp = 0;
+  CHECK(refusal([&] { validate(o); }) == "render.spp: must be in [1, 65536], got 0");
+  o = RenderOptions();
+  o.max_depth = 0;
+  CHECK(refusal([&] { validate(o); }) == "render.max_depth: must be in [1, 1024], got 0");
+  CHECK_NOTHROW(validate(RenderOptions()));
+}
