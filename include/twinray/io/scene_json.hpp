@@ -158,11 +158,19 @@ class PathTracker {
   }
 
   // The path of the value being read, `objects[3].radius`.
-  std::string path() const {
+  std::string path() const { return path_of(false); }
+  // The path of the value that was about to be read when the parser stopped: in an
+  // array, the element after the last one read.
+  std::string pending_path() const { return path_of(true); }
+
+ private:
+  std::string path_of(bool pending) const {
     std::string p;
-    for (const Frame& f : frames_) {
+    for (size_t i = 0; i < frames_.size(); ++i) {
+      const Frame& f = frames_[i];
       if (f.array) {
-        if (f.index >= 0) p += "[" + std::to_string(f.index) + "]";
+        long long index = f.index + (pending && i + 1 == frames_.size() ? 1 : 0);
+        if (index >= 0) p += "[" + std::to_string(index) + "]";
       } else if (!f.key.empty()) {
         p += (p.empty() ? "" : ".") + f.key;
       }
@@ -170,7 +178,6 @@ class PathTracker {
     return p;
   }
 
- private:
   struct Frame {
     bool array;
     long long index;
@@ -219,9 +226,19 @@ inline Json parse_json(const std::string& text, const std::string& file,
     std::string what = e.what();
     size_t colon = what.find(": ", what.find("parse error"));
     std::string detail = colon == std::string::npos ? what : what.substr(colon + 2);
-    std::string where = tracker.path();
-    throw invalid_input(file + ": " + (where.empty() ? "" : where + ": ") + "invalid JSON at " +
-                        line_column(text, e.byte > 0 ? e.byte - 1 : 0) + ": " + detail);
+    std::string where = tracker.pending_path();
+    throw invalid_input(file + ": invalid JSON at " +
+                        line_column(text, e.byte > 0 ? e.byte - 1 : 0) +
+                        (where.empty() ? "" : " (near " + where + ")") + ": " + detail);
+  } catch (const Json::out_of_range& e) {
+    // A number too large for a double (1e999) or an integer type.
+    std::string what = e.what();
+    size_t quote = what.find('\'');
+    std::string number = quote == std::string::npos ? "" : what.substr(quote);
+    std::string where = tracker.pending_path();
+    throw invalid_input(file + ": " + (where.empty() ? "(top level)" : where) +
+                        ": number out of range (not a finite double)" +
+                        (number.empty() ? "" : ": " + number));
   }
 }
 
