@@ -85,6 +85,9 @@ TEST_CASE("scene refusals name the object and the problem") {
   s = one_sphere();
   s.add(Triangle<float>{{glm::vec3(0), glm::vec3(INFINITY, 0, 0), glm::vec3(0, 1, 0)}, 0});
   CHECK(refusal([&] { validate(s); }).find("objects[1].vertices[1]: must be finite") == 0);
+  s = one_sphere();
+  s.background = glm::vec3(0, 2, 0);
+  CHECK(refusal([&] { validate(s); }) == "image.background[1]: must be in [0, 1], got 2");
   CHECK_NOTHROW(validate(one_sphere()));
 }
 

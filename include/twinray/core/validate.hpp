@@ -106,7 +106,9 @@ template <class T>
 void validate(const Scene<T>& scene) {
   using detail::at;
   using detail::refuse;
-  detail::require_finite("image.background", scene.background);
+  for (int c = 0; c < 3; ++c)
+    detail::require_range("image.background[" + std::to_string(c) + "]", scene.background[c], T(0),
+                          T(1));
   for (size_t i = 0; i < scene.materials.size(); ++i) {
     const Material<T>& m = scene.materials[i];
     std::string base = at("materials", i);
