@@ -1,7 +1,8 @@
 /* Iterative BVH traversal with a small fixed stack (no recursion: OpenCL C has none).
  * Nodes are flat and index-based (types.h TrBvhNode), so the same walk runs on both
- * sides. Box test: the slab method with the far distance scaled by 1 + 2 gamma(3), so
- * rounding never culls a box the ray touches (pbrt-v4 Bounds3::IntersectP). */
+ * sides and visits the same nodes in the same order. Box test: the slab method with
+ * the far distances scaled by 1 + 2 gamma(3), so rounding never culls a box the ray
+ * touches (pbrt-v4 Bounds3::IntersectP). */
 
 #define TR_BVH_STACK_SIZE 64
 
@@ -15,9 +16,16 @@ TR_FN int tr_intersect_primitive(const TrSceneRef* s, int prim, TrRay ray, real 
   return 0;
 }
 
-TR_FN int tr_ray_hits_box(TR_GLOBAL const TrBvhNode* node, vec3 o, vec3 inv_d, real tmax) {
-  real t0 = TR_R(0.0), t1 = tmax;
+/* Slab test of one box; on a hit, *t_entry is where the ray enters it (0 if it starts
+ * inside). The far end of every slab and of the ray segment is grown by 1 + 2 gamma(3)
+ * (pbrt-v4), and the builder pads every box (core/bvh.hpp), so rounding never culls a
+ * box that holds a primitive the primitive tests would report. A slab that gives NaN
+ * (0 * inf: the origin on a face of a box the ray runs parallel to) fails both
+ * compares and culls nothing. */
+TR_FN int tr_ray_hits_box(TR_GLOBAL const TrBvhNode* node, vec3 o, vec3 inv_d, real tmax,
+                          real* t_entry) {
   real grow = TR_R(1.0) + TR_R(2.0) * tr_gamma(3);
+  real t0 = TR_R(0.0), t1 = tmax * grow;
   real tn, tf, tmp;
   tn = (node->min_x - o.x) * inv_d.x;
   tf = (node->max_x - o.x) * inv_d.x;
@@ -29,7 +37,6 @@ TR_FN int tr_ray_hits_box(TR_GLOBAL const TrBvhNode* node, vec3 o, vec3 inv_d, r
   tf = tf * grow;
   t0 = tn > t0 ? tn : t0;
   t1 = tf < t1 ? tf : t1;
-  if (t0 > t1) return 0;
   tn = (node->min_y - o.y) * inv_d.y;
   tf = (node->max_y - o.y) * inv_d.y;
   if (tn > tf) {
@@ -40,7 +47,6 @@ TR_FN int tr_ray_hits_box(TR_GLOBAL const TrBvhNode* node, vec3 o, vec3 inv_d, r
   tf = tf * grow;
   t0 = tn > t0 ? tn : t0;
   t1 = tf < t1 ? tf : t1;
-  if (t0 > t1) return 0;
   tn = (node->min_z - o.z) * inv_d.z;
   tf = (node->max_z - o.z) * inv_d.z;
   if (tn > tf) {
@@ -51,21 +57,31 @@ TR_FN int tr_ray_hits_box(TR_GLOBAL const TrBvhNode* node, vec3 o, vec3 inv_d, r
   tf = tf * grow;
   t0 = tn > t0 ? tn : t0;
   t1 = tf < t1 ? tf : t1;
+  *t_entry = t0;
   return t0 <= t1;
 }
 
-/* Walks the BVH; any_hit != 0 stops at the first hit found. Returns whether one was. */
+/* Walks the BVH; any_hit != 0 stops at the first hit found. Returns whether one was.
+ * At an inner node both children's boxes are tested: the walk goes on into the one the
+ * ray enters first and pushes the other with its entry distance, which is checked
+ * again when it is popped, against the closest hit found by then (a box entered beyond
+ * it cannot hold a closer hit). The stack holds at most one entry per level, and the
+ * builder caps the depth (core/bvh.hpp kMaxDepth < TR_BVH_STACK_SIZE), so it never
+ * overflows. */
 TR_FN int tr_bvh_walk(const TrSceneRef* s, TrRay ray, real tmax, TrHit* hit, int any_hit) {
   if (s->params->n_bvh_nodes <= 0) return 0;
   vec3 inv_d = TR_VEC3(TR_R(1.0) / ray.d.x, TR_R(1.0) / ray.d.y, TR_R(1.0) / ray.d.z);
-  int stack[TR_BVH_STACK_SIZE];
+  real grow = TR_R(1.0) + TR_R(2.0) * tr_gamma(3);
+  int stack_node[TR_BVH_STACK_SIZE];
+  real stack_t[TR_BVH_STACK_SIZE];
   int top = 0;
   int found = 0;
-  stack[top++] = 0;
-  while (top > 0) {
-    int index = stack[--top];
+  real t_root;
+  if (!tr_ray_hits_box(&s->bvh_nodes[0], ray.o, inv_d, tmax, &t_root)) return 0;
+  int index = 0;
+  for (;;) {
     TR_GLOBAL const TrBvhNode* node = &s->bvh_nodes[index];
-    if (!tr_ray_hits_box(node, ray.o, inv_d, tmax)) continue;
+    int next = -1;
     if (node->count > 0) {
       for (int i = 0; i < node->count; ++i) {
         if (tr_intersect_primitive(s, s->bvh_prims[node->first + i], ray, tmax, hit)) {
@@ -74,18 +90,31 @@ TR_FN int tr_bvh_walk(const TrSceneRef* s, TrRay ray, real tmax, TrHit* hit, int
           if (any_hit) return 1;
         }
       }
-    } else if (top + 2 <= TR_BVH_STACK_SIZE) {
-      /* Visit the child nearer along the ray first: push it last. */
+    } else {
       int left = node->first;
-      int near_first = tr_component(ray.d, -node->count) >= TR_R(0.0); /* split axis */
-      if (near_first) {
-        stack[top++] = left + 1;
-        stack[top++] = left;
-      } else {
-        stack[top++] = left;
-        stack[top++] = left + 1;
+      real t_left, t_right;
+      int hit_left = tr_ray_hits_box(&s->bvh_nodes[left], ray.o, inv_d, tmax, &t_left);
+      int hit_right = tr_ray_hits_box(&s->bvh_nodes[left + 1], ray.o, inv_d, tmax, &t_right);
+      if (hit_left && hit_right) {
+        int right_first = t_right < t_left;
+        if (top < TR_BVH_STACK_SIZE) {
+          stack_node[top] = right_first ? left : left + 1;
+          stack_t[top] = right_first ? t_left : t_right;
+          ++top;
+        }
+        next = right_first ? left + 1 : left;
+      } else if (hit_left) {
+        next = left;
+      } else if (hit_right) {
+        next = left + 1;
       }
     }
+    while (next < 0 && top > 0) {
+      --top;
+      if (!(stack_t[top] > tmax * grow)) next = stack_node[top];
+    }
+    if (next < 0) break;
+    index = next;
   }
   return found;
 }

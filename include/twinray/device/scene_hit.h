@@ -1,10 +1,32 @@
 /* Closest hit and any hit over the whole scene. Each primitive type is a flat array
  * walked by index; types the Features mask leaves out are dead code on both sides.
  * With TR_F_BVH, spheres and triangles are found through the flattened BVH
- * (bvh_traverse.h); planes are unbounded and always stay outside it. */
+ * (bvh_traverse.h); planes are unbounded and always stay outside it.
+ *
+ * Every ray the renderer traces (camera, shadow, reflected) passes through one of the
+ * two functions below, so that is where benchmarks count them: a host instantiation
+ * whose mask has TR_F_COUNT_RAYS (never set by a render, never on the device) adds one
+ * to a per-thread counter per query (bench/). */
+
+#define TR_F_COUNT_RAYS 0x80000000u
+#if defined(TR_DEVICE)
+#define TR_COUNT_RAY() \
+  do {                 \
+  } while (0)
+#else
+TR_FN long long* tr_ray_counter(void) {
+  static thread_local long long count = 0;
+  return &count;
+}
+#define TR_COUNT_RAY()                                \
+  do {                                                \
+    if (TR_HAS(TR_F_COUNT_RAYS)) ++*tr_ray_counter(); \
+  } while (0)
+#endif
 
 TR_FN int tr_closest_hit(const TrSceneRef* s, TrRay ray, real tmax, TrHit* hit) {
   int found = 0;
+  TR_COUNT_RAY();
   if (tr_use(s, TR_F_BVH)) {
     found = tr_bvh_closest(s, ray, tmax, hit);
     if (found) tmax = hit->t;
@@ -37,6 +59,7 @@ TR_FN int tr_closest_hit(const TrSceneRef* s, TrRay ray, real tmax, TrHit* hit) 
 /* Is anything in (0, tmax) along the ray? Stops at the first hit. */
 TR_FN int tr_any_hit(const TrSceneRef* s, TrRay ray, real tmax) {
   TrHit scratch = tr_no_hit();
+  TR_COUNT_RAY();
   if (tr_use(s, TR_F_BVH)) {
     if (tr_bvh_any(s, ray, tmax)) return 1;
   } else {

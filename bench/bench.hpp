@@ -1,0 +1,168 @@
+// The benchmark runner behind `twinray bench` and bench/twinray_bench: renders a
+// scene on a backend in a precision, one warm-up then R timed runs, and prints one CSV
+// line per scene x backend x precision (shared/CLI.md):
+//   scene,backend,precision,width,height,spp,primitives,build_ms,render_ms_min,
+//   render_ms_median,render_ms_max,rays,mrays_per_s,peak_mib
+// build_ms: pack() with its BVH build; the OpenCL program build goes to stderr.
+// rays: primary + shadow + reflected rays of one frame, counted exactly by a host pass
+// through the device code's ray counter (device/scene_hit.h TR_F_COUNT_RAYS).
+// peak_mib: the process's peak resident memory from packing to the last run (VmHWM,
+// reset before packing where the kernel allows it).
+#pragma once
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <functional>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <twinray/twinray.hpp>
+
+#include "bench_scenes.hpp"
+
+namespace twinray_bench {
+
+struct Row {
+  std::string scene, backend, precision;
+  int width = 0, height = 0, spp = 1;
+  long long primitives = 0;
+  double build_ms = 0, min_ms = 0, median_ms = 0, max_ms = 0;
+  long long rays = 0;
+  double mrays_per_s = 0, peak_mib = 0;
+};
+
+inline const char* csv_header() {
+  return "scene,backend,precision,width,height,spp,primitives,build_ms,render_ms_min,"
+         "render_ms_median,render_ms_max,rays,mrays_per_s,peak_mib";
+}
+
+inline std::string csv_line(const Row& r) {
+  char buf[512];
+  std::snprintf(buf, sizeof buf, "%s,%s,%s,%d,%d,%d,%lld,%.1f,%.1f,%.1f,%.1f,%lld,%.2f,%.0f",
+                r.scene.c_str(), r.backend.c_str(), r.precision.c_str(), r.width, r.height, r.spp,
+                r.primitives, r.build_ms, r.min_ms, r.median_ms, r.max_ms, r.rays, r.mrays_per_s,
+                r.peak_mib);
+  return buf;
+}
+
+// ---- the machine ----
+inline std::string read_first(const std::string& file, const std::string& key) {
+  std::ifstream f(file);
+  std::string line;
+  while (std::getline(f, line))
+    if (line.compare(0, key.size(), key) == 0) {
+      size_t colon = line.find(':');
+      std::string v = colon == std::string::npos ? line : line.substr(colon + 1);
+      v.erase(0, v.find_first_not_of(" \t"));
+      return v;
+    }
+  return "";
+}
+
+inline std::string machine_description() {
+  std::ostringstream s;
+  s << read_first("/proc/cpuinfo", "model name") << ", " << std::thread::hardware_concurrency()
+    << " hardware threads, " << read_first("/proc/meminfo", "MemTotal");
+  return s.str();
+}
+
+// Peak resident memory (VmHWM) in MiB, and its reset (Linux >= 4.0: clear_refs 5).
+inline double peak_mib() {
+  std::string v = read_first("/proc/self/status", "VmHWM");
+  return v.empty() ? 0.0 : std::atof(v.c_str()) / 1024.0;
+}
+inline void reset_peak() {
+  std::ofstream f("/proc/self/clear_refs");
+  if (f) f << "5";
+}
+
+inline double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// Rays of one frame: renders it once on the CPU through the counting instantiation of
+// the device code. It has every feature compiled in and honours the run-time mask
+// (TrParams::features), so it traces exactly the rays the timed render traces.
+template <class T>
+long long count_rays(const twinray::PackedScene<T>& ps, int threads) {
+  using Kernel = typename twinray::device::Code<T>::template Kernel<TR_F_ALL | TR_F_COUNT_RAYS>;
+  const auto scene = ps.ref();
+  const int width = ps.params.width, height = ps.params.height;
+  std::atomic<int> next_row{0};
+  std::atomic<long long> total{0};
+  auto worker = [&] {
+    long long before = *Kernel::tr_ray_counter();
+    for (int y; (y = next_row.fetch_add(1)) < height;)
+      for (int x = 0; x < width; ++x) (void)Kernel::tr_render_pixel(&scene, x, y);
+    total += *Kernel::tr_ray_counter() - before;
+  };
+  std::vector<std::thread> pool;
+  for (int i = 1; i < threads; ++i) pool.emplace_back(worker);
+  worker();
+  for (auto& t : pool) t.join();
+  return total.load();
+}
+
+struct Config {
+  int runs = 5;
+  int threads = 0;  // CPU backend threads; 0 = all
+  // BVH: 0 as pack() decides (the threshold), 1 always, -1 never (threshold measurements)
+  int bvh = 0;
+  std::function<void(const std::string&)> note = [](const std::string& s) {
+    std::cerr << s << "\n";
+  };
+};
+
+template <class T>
+Row run(const BenchScene<T>& b, twinray::Backend backend, const Config& config) {
+  Row row;
+  row.scene = b.name;
+  row.backend = backend == twinray::Backend::OpenCL ? "opencl" : "cpu";
+  row.precision = twinray::device::Code<T>::name;
+  row.width = b.camera.width;
+  row.height = b.camera.height;
+  row.spp = b.spp;
+  twinray::RenderOptions options;
+  options.backend = backend;
+  options.spp = b.spp;
+  options.threads = config.threads;
+  options.log = [&](const std::string& s) { config.note(s); };
+
+  reset_peak();
+  auto t0 = std::chrono::steady_clock::now();
+  twinray::PackedScene<T> ps = twinray::pack(b.scene, b.camera, options);
+  if (config.bvh > 0) twinray::bvh::build(ps, options.threads);
+  if (config.bvh < 0) twinray::bvh::strip(ps);
+  row.build_ms = ms_since(t0);
+  row.primitives =
+      static_cast<long long>(ps.spheres.size() + ps.triangles.size() + ps.planes.size());
+
+  twinray::RenderInfo info;
+  (void)twinray::render_packed(ps, ps.features, options, &info);  // warm-up (program build)
+  if (backend == twinray::Backend::OpenCL)
+    config.note(b.name + " " + row.precision + ": OpenCL program " +
+                (info.program_cached ? "from cache" : "built") + " in " +
+                std::to_string(info.build_ms) + " ms on " + info.device);
+  std::vector<double> times;
+  for (int i = 0; i < config.runs; ++i) {
+    auto r0 = std::chrono::steady_clock::now();
+    (void)twinray::render_packed(ps, ps.features, options, &info);
+    times.push_back(ms_since(r0));
+  }
+  row.peak_mib = peak_mib();
+  std::sort(times.begin(), times.end());
+  row.min_ms = times.front();
+  row.max_ms = times.back();
+  row.median_ms = times[times.size() / 2];
+  row.rays = count_rays(ps, twinray::cpu::thread_count(config.threads));
+  row.mrays_per_s = row.median_ms > 0 ? row.rays / (row.median_ms * 1e3) : 0;
+  return row;
+}
+
+}  // namespace twinray_bench

@@ -1,0 +1,107 @@
+// twinray's benchmark program (issue 5): the timing table of `twinray bench`, as CSV
+// on stdout (shared/CLI.md columns), the machine and notes on stderr.
+//
+//   twinray_bench [--scenes demo,spheres_1e6,...] [--backends cpu,opencl]
+//                 [--precisions float,double] [--runs R] [--width W] [--height H]
+//                 [--threads N] [--bvh auto|on|off] [--obj-dir DIR]
+//
+// Defaults: the built-in set (bench_scenes.hpp) at 1920x1080, both backends (OpenCL
+// when a device exists), float, 5 timed runs after one warm-up.
+#include <cstdlib>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "bench.hpp"
+
+namespace {
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream in(s);
+  for (std::string item; std::getline(in, item, ',');)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+int usage(const std::string& what) {
+  std::cerr
+      << "twinray_bench: " << what
+      << "\nusage: twinray_bench [--scenes a,b] [--backends cpu,opencl] [--precisions "
+         "float,double] [--runs R] [--width W] [--height H] [--threads N] [--bvh auto|on|off] "
+         "[--obj-dir DIR]\n";
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<std::string> scenes = twinray_bench::default_scenes();
+  std::vector<std::string> backends = {"cpu", "opencl"}, precisions = {"float"};
+  int width = 1920, height = 1080;
+  std::string obj_dir = ".";
+  twinray_bench::Config config;
+  for (int i = 1; i < argc; ++i) {
+    std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
+      return argv[++i];
+    };
+    try {
+      if (a == "--scenes")
+        scenes = split(value());
+      else if (a == "--backends")
+        backends = split(value());
+      else if (a == "--precisions")
+        precisions = split(value());
+      else if (a == "--runs")
+        config.runs = std::max(1, std::atoi(value().c_str()));
+      else if (a == "--width")
+        width = std::atoi(value().c_str());
+      else if (a == "--height")
+        height = std::atoi(value().c_str());
+      else if (a == "--threads")
+        config.threads = std::atoi(value().c_str());
+      else if (a == "--bvh") {
+        std::string v = value();
+        config.bvh = v == "on" ? 1 : (v == "off" ? -1 : 0);
+      } else if (a == "--obj-dir")
+        obj_dir = value();
+      else
+        return usage("unknown option " + a);
+    } catch (const std::exception& e) {
+      return usage(e.what());
+    }
+  }
+  if (width < 1 || height < 1) return usage("bad image size");
+  std::cerr << "machine: " << twinray_bench::machine_description() << "\n";
+  bool have_opencl = twinray::opencl_available();
+  std::cout << twinray_bench::csv_header() << std::endl;
+  try {
+    for (const std::string& name : scenes)
+      for (const std::string& precision : precisions) {
+        auto one = [&](auto zero) {
+          using T = decltype(zero);
+          auto b = twinray_bench::make_scene<T>(name, width, height, obj_dir);
+          if (b.load_ms > 0) std::cerr << name << ": OBJ read in " << b.load_ms << " ms\n";
+          for (const std::string& backend : backends) {
+            if (backend == "opencl" && !have_opencl) {
+              std::cerr << name << ": no OpenCL device, opencl skipped\n";
+              continue;
+            }
+            auto be = backend == "opencl" ? twinray::Backend::OpenCL : twinray::Backend::Cpu;
+            std::cout << twinray_bench::csv_line(twinray_bench::run(b, be, config)) << std::endl;
+          }
+        };
+        if (precision == "double")
+          one(0.0);
+        else
+          one(0.0f);
+      }
+  } catch (const std::exception& e) {
+    std::cerr << "twinray_bench: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
