@@ -1,6 +1,6 @@
 # Drives the consumer project (tests/consumer/project) the way a user adopts twinray.
 #   cmake -DMODE=installed|subdirectory -DSOURCE_DIR=<twinray> -DWORK_DIR=<scratch>
-#         -DGENERATOR=<gen> [-DCXX=<compiler>] -P run_consumer.cmake
+#         -DGENERATOR=<gen> [-DCXX=<compiler>] [-DHOST_PROCESSOR=x86_64] -P run_consumer.cmake
 # installed:    copy the source tree, configure, `cmake --install` it into a prefix,
 #               DELETE the copy and its build folder, check the installed files name
 #               neither, check find_package's version and component handling, then build
@@ -102,9 +102,10 @@ if(MODE STREQUAL "installed")
 
   # The consumer, with flags that contract a*b+c into FMA unless the target says no.
   set(flags "-O3 -ffp-contract=fast")
-  if(CMAKE_HOST_SYSTEM_PROCESSOR MATCHES "x86_64|AMD64|aarch64|arm64")
+  if(HOST_PROCESSOR MATCHES "x86_64|AMD64|aarch64|arm64")
     string(APPEND flags " -march=native")
   endif()
+  message(STATUS "consumer flags: ${flags}")
   step("configure consumer (find_package)" 0 ${CMAKE_COMMAND}
        -S ${CMAKE_CURRENT_LIST_DIR}/project -B ${WORK_DIR}/consumer -G ${GENERATOR}
        ${compiler_args} -DCMAKE_BUILD_TYPE=Release "-DCMAKE_CXX_FLAGS=${flags}"

@@ -26,6 +26,9 @@ int main(int argc, char** argv) {
   std::cout << "twinray " << TWINRAY_VERSION_STRING << "\n";
   // The target's -ffp-contract=off must beat the project's own flags (-march=native
   // -ffp-contract=fast in the test): this runs the library's own self-test.
+#ifdef __FMA__
+  std::cout << "FMA instructions are enabled: contraction would change the CPU image\n";
+#endif
   if (twinray::fp_contraction_detected()) {
     std::cerr << "consumer: compiled with floating-point contraction despite twinray::twinray\n";
     return 1;

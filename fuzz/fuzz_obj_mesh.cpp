@@ -1,0 +1,35 @@
+// libFuzzer target: OBJ meshes (io/obj_mesh.hpp). Any input must either load as a mesh
+// whose every index is in range, or be refused with twinray::Error(InvalidInput).
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include <twinray/core/error.hpp>
+#include <twinray/io/obj_mesh.hpp>
+
+namespace {
+
+template <class T>
+void load(const std::string& text) {
+  twinray::io::ObjLimits limits;
+  limits.max_file_bytes = 1 << 20;
+  limits.max_vertices = 1 << 14;
+  limits.max_triangles = 1 << 14;
+  try {
+    twinray::Mesh<T> mesh = twinray::io::parse_obj_mesh<T>(text, "fuzz.obj", limits);
+    for (const auto& tri : mesh.triangles)
+      for (int index : tri)
+        if (index < 0 || static_cast<size_t>(index) >= mesh.vertices.size()) __builtin_trap();
+  } catch (const twinray::Error& e) {
+    if (e.kind() != twinray::ErrorKind::InvalidInput) __builtin_trap();
+  }
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  std::string text(reinterpret_cast<const char*>(data), size);
+  load<float>(text);
+  load<double>(text);
+  return 0;
+}
