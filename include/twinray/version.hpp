@@ -1,3 +1,6 @@
+// The version of twinray these headers are: TWINRAY_VERSION_MAJOR, _MINOR, _PATCH as
+// integers for #if, TWINRAY_VERSION_STRING for messages. The CMake package has the same
+// version (find_package(twinray 0.1) accepts 0.1.* while twinray is 0.x; CHANGELOG.md).
 #pragma once
 
 #define TWINRAY_VERSION_MAJOR 0

@@ -13,6 +13,8 @@ enum class ErrorKind {
   RuntimeFailure,      // rendering or writing failed while running
 };
 
+// Thrown by every twinray function that can fail; what() is a complete sentence for a
+// user, naming the file, value or device concerned.
 class Error : public std::runtime_error {
  public:
   Error(ErrorKind kind, const std::string& message) : std::runtime_error(message), kind_(kind) {}

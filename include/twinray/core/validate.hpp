@@ -66,6 +66,13 @@ inline std::string at(const std::string& base, size_t i) {
 
 }  // namespace detail
 
+// Each validate() throws twinray::Error(InvalidInput) naming the first bad value, and
+// returns normally when everything can be rendered. Pure functions: any thread may call
+// them, also on the same object, as long as nobody modifies it meanwhile.
+
+// Camera: image size in [1, Limits::max_image_side] pixels per side and at most
+// Limits::max_pixels in all; finite position, look_at and up; up not parallel to the
+// view direction; viewplane_height and focal_length (world units) > 0.
 template <class T>
 void validate(const Camera<T>& camera) {
   using detail::refuse;
@@ -102,6 +109,9 @@ void validate(const Camera<T>& camera) {
     detail::require_range("camera.focal_length", *camera.focal_length, T(0), T(INFINITY), true);
 }
 
+// Scene: finite geometry, radii > 0, non-zero plane normals, mesh and material indices
+// in range; material and background colors in [0, 1], light colors >= 0; ka, kd, ks,
+// shininess and light intensities >= 0; glaze in [0, 1].
 template <class T>
 void validate(const Scene<T>& scene) {
   using detail::at;
@@ -168,6 +178,8 @@ void validate(const Scene<T>& scene) {
   }
 }
 
+// Options: spp in [1, Limits::max_spp], max_depth in [1, Limits::max_depth], only
+// known term bits, threads >= 0.
 inline void validate(const RenderOptions& options) {
   using detail::refuse;
   if (options.spp < 1 || options.spp > Limits::max_spp)

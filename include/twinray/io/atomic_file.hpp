@@ -17,6 +17,9 @@
 namespace twinray {
 namespace io {
 
+// Throws Error(RuntimeFailure) "PATH: what: reason" (e.g. "No space left on device").
+// Any thread may call it; the temporary is named after the process, so two threads of
+// one process must not write the same path at the same time.
 inline void write_file_atomically(const std::string& path, const void* data, size_t size) {
   std::string tmp = path + ".tmp-" + std::to_string(::getpid());
   auto fail = [&](const std::string& what) {

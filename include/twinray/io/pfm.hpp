@@ -17,6 +17,9 @@
 namespace twinray {
 namespace io {
 
+// Any thread may call these; they touch nothing shared.
+
+// The PFM file's bytes.
 template <class T>
 std::vector<unsigned char> encode_pfm(const Image<T>& image) {
   std::string header =
@@ -34,6 +37,8 @@ std::vector<unsigned char> encode_pfm(const Image<T>& image) {
   return out;
 }
 
+// Writes `path` atomically (io/atomic_file.hpp): complete, or the earlier file intact.
+// Throws Error(RuntimeFailure) naming the path and the system's reason.
 template <class T>
 void write_pfm(const std::string& path, const Image<T>& image) {
   write_file_atomically(path, encode_pfm(image));

@@ -16,6 +16,9 @@
 namespace twinray {
 namespace io {
 
+// Any thread may call these; they touch nothing shared.
+
+// One linear value as 8 bits: clamp to [0, 1] (NaN is 0), scale by 255, round to nearest.
 template <class T>
 unsigned char to_8bit(T v) {
   if (!(v > T(0))) return 0;  // also NaN
@@ -23,6 +26,7 @@ unsigned char to_8bit(T v) {
   return static_cast<unsigned char>(std::lround(v * T(255)));
 }
 
+// The whole image as 8-bit RGB, row 0 first.
 template <class T>
 std::vector<unsigned char> to_rgb8(const Image<T>& image) {
   std::vector<unsigned char> rgb(image.rgb.size());
@@ -30,6 +34,7 @@ std::vector<unsigned char> to_rgb8(const Image<T>& image) {
   return rgb;
 }
 
+// The PNG file's bytes. Throws Error(RuntimeFailure) if stb cannot encode.
 template <class T>
 std::vector<unsigned char> encode_png(const Image<T>& image) {
   std::vector<unsigned char> rgb = to_rgb8(image);
@@ -45,6 +50,8 @@ std::vector<unsigned char> encode_png(const Image<T>& image) {
   return png;
 }
 
+// Writes `path` atomically (io/atomic_file.hpp): complete, or the earlier file intact.
+// Throws Error(RuntimeFailure) naming the path and the system's reason.
 template <class T>
 void write_png(const std::string& path, const Image<T>& image) {
   write_file_atomically(path, encode_png(image));

@@ -27,13 +27,14 @@ template <class T>
 struct Camera {
   using vec3 = glm::vec<3, T>;
   Projection projection = Projection::Perspective;
-  vec3 position{T(4), T(-1), T(5)};
-  vec3 look_at{T(0), T(0), T(-1)};
-  vec3 up{T(0), T(-1), T(0)};
-  std::optional<T> focal_length;  // perspective only; default |position - look_at|
-  T viewplane_height = T(6);
-  int width = 400;   // pixels, >= 1
-  int height = 400;  // pixels, >= 1
+  vec3 position{T(4), T(-1), T(5)};  // world units
+  vec3 look_at{T(0), T(0), T(-1)};   // world units; differs from position
+  vec3 up{T(0), T(-1), T(0)};        // any length, not parallel to look_at - position
+  std::optional<T> focal_length;     // perspective only; default |position - look_at|
+  T viewplane_height = T(6);         // world units, > 0
+  // Pixels, in [1, Limits::max_image_side], width x height <= Limits::max_pixels.
+  int width = 400;
+  int height = 400;
 
   T effective_focal_length() const {
     if (projection == Projection::Orthographic) return T(0);

@@ -16,6 +16,9 @@ namespace twinray {
 template <class T>
 using Object = std::variant<Sphere<T>, Triangle<T>, Plane<T>, Mesh<T>>;
 
+// A plain value type, built on one thread. render() only reads it, so any number of
+// threads may render the same Scene at once as long as nobody modifies it meanwhile.
+// Units: any consistent length unit ("world units") for every position and size.
 template <class T>
 struct Scene {
   std::vector<Material<T>> materials;

@@ -1,5 +1,6 @@
 // The primitives: Sphere<T>, Triangle<T>, Plane<T> (infinite) and Mesh<T> (indexed
-// triangles). Each refers to a material by its index in Scene<T>::materials.
+// triangles). Each refers to a material by its index in Scene<T>::materials. Positions
+// and lengths are in world units; every coordinate must be finite (validate() checks).
 #pragma once
 
 #include <array>
