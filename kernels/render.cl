@@ -43,6 +43,53 @@ __kernel void tr_kernel_aov(TR_SCENE_ARGS, __global real* out, int aov) {
   tr_store_rgb(out, params->width, x, y, tr_render_aov(&s, x, y, aov));
 }
 
+/* Adaptive sampling (device/adaptive.h), three launches. First pass, every pixel:
+ * p->spp samples; the mean goes to the framebuffer, sum and range to `stats`. */
+__kernel void tr_kernel_adaptive_first(TR_SCENE_ARGS, __global real* out, __global real* stats) {
+  int x = (int)get_global_id(0), y = (int)get_global_id(1);
+  if (x >= params->width || y >= params->height) return;
+  TrSceneRef s =
+      tr_scene_ref(params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims);
+  vec3 range;
+  vec3 sum = tr_adaptive_first(&s, x, y, &range);
+  tr_adaptive_store_stats(stats, params->width, x, y, sum, range);
+  tr_store_rgb(out, params->width, x, y, sum * (TR_R(1.0) / (real)params->spp));
+}
+
+/* Criterion, every pixel: 1 in `flags` where the pixel is refined. */
+__kernel void tr_kernel_adaptive_mark(__global const TrParams* params, __global const real* stats,
+                                      __global int* flags) {
+  int x = (int)get_global_id(0), y = (int)get_global_id(1);
+  if (x >= params->width || y >= params->height) return;
+  flags[y * params->width + x] = tr_adaptive_refine_flag(params, stats, x, y);
+}
+
+/* Second pass, one work-item per refined pixel (`pixels`: y * width + x, count of them). */
+__kernel void tr_kernel_adaptive_refine(TR_SCENE_ARGS, __global real* out,
+                                        __global const real* stats, __global const int* pixels,
+                                        int count) {
+  int i = (int)get_global_id(0);
+  if (i >= count) return;
+  int x = pixels[i] % params->width, y = pixels[i] / params->width;
+  TrSceneRef s =
+      tr_scene_ref(params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims);
+  tr_store_rgb(out, params->width, x, y, tr_adaptive_refine(&s, stats, x, y));
+}
+
+/* Every sample position of every pixel, for tests of device/sampling.h:
+ * out[((y * width + x) * spp + i) * 2 + {0, 1}] = (x, y) of sample i. */
+__kernel void tr_kernel_sample_positions(__global real* out, int sampler, int seed, int spp,
+                                         int width, int height) {
+  int x = (int)get_global_id(0), y = (int)get_global_id(1);
+  if (x >= width || y >= height) return;
+  for (int i = 0; i < spp; ++i) {
+    TrSample2 smp = tr_sample_position_seeded(sampler, seed, i, spp, x, y);
+    int k = ((y * width + x) * spp + i) * 2;
+    out[k] = smp.x;
+    out[k + 1] = smp.y;
+  }
+}
+
 /* sizeof of every buffer struct as the device compiler lays it out; the host compares
  * them with its own (tests/device/layout_test.cpp). */
 __kernel void tr_kernel_layout_sizes(__global int* out) {

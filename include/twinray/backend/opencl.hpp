@@ -317,6 +317,22 @@ class Context {
     return b.mem;
   }
 
+  // A read-write device buffer named `slot` of at least `bytes`, contents undefined
+  // (adaptive sampling's per-pixel statistics and flags, backend/adaptive.hpp).
+  cl_mem scratch(const std::string& slot, size_t bytes) {
+    Buffer& b = buffers_["scratch:" + slot];
+    size_t alloc = bytes > 0 ? bytes : 16;
+    if (!b.mem || b.capacity < alloc) {
+      if (b.mem) clReleaseMemObject(b.mem);
+      b = Buffer();
+      cl_int err = CL_SUCCESS;
+      b.mem = clCreateBuffer(context_, CL_MEM_READ_WRITE, alloc, nullptr, &err);
+      check(err, "clCreateBuffer (scratch)");
+      b.capacity = alloc;
+    }
+    return b.mem;
+  }
+
   // sizeof of every buffer struct as this device's compiler lays it out (kernel
   // tr_kernel_layout_sizes): TrSphere, TrTriangle, TrPlane, TrMaterial, TrLight,
   // TrBvhNode, TrParams. Must equal the host's (core/device_code.hpp).
@@ -465,6 +481,7 @@ Image<T> render_packed(Context& ctx, const PackedScene<T>& ps, unsigned features
 
   const int width = ps.params.width, height = ps.params.height;
   size_t out_bytes = static_cast<size_t>(width) * height * 3 * sizeof(T);
+  auto t_upload = std::chrono::steady_clock::now();
   cl_mem args[9] = {
       ctx.upload("params", &ps.params, sizeof ps.params),
       ctx.upload("spheres", ps.spheres.data(), ps.spheres.size() * sizeof ps.spheres[0]),
@@ -475,6 +492,9 @@ Image<T> render_packed(Context& ctx, const PackedScene<T>& ps, unsigned features
       ctx.upload("bvh_nodes", ps.bvh_nodes.data(), ps.bvh_nodes.size() * sizeof ps.bvh_nodes[0]),
       ctx.upload("bvh_prims", ps.bvh_prims.data(), ps.bvh_prims.size() * sizeof(int)),
       ctx.output(out_bytes)};
+  double transfer_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_upload)
+          .count();
   for (cl_uint i = 0; i < 9; ++i)
     check(clSetKernelArg(kernel, i, sizeof(cl_mem), &args[i]), "clSetKernelArg");
   if (output != Output::Shaded) {
@@ -491,9 +511,13 @@ Image<T> render_packed(Context& ctx, const PackedScene<T>& ps, unsigned features
   check(clEnqueueNDRangeKernel(ctx.queue(), kernel, 2, nullptr, global, local, 0, nullptr, nullptr),
         "clEnqueueNDRangeKernel");
   Image<T> image(width, height);
+  check(clFinish(ctx.queue()), "clFinish");  // so the read below times the copy alone
+  auto t_read = std::chrono::steady_clock::now();
   check(clEnqueueReadBuffer(ctx.queue(), args[8], CL_TRUE, 0, out_bytes, image.rgb.data(), 0,
                             nullptr, nullptr),
         "clEnqueueReadBuffer");
+  transfer_ms +=
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_read).count();
   ctx.save_binary(entry);
   if (info) {
     info->backend = Backend::OpenCL;
@@ -503,6 +527,7 @@ Image<T> render_packed(Context& ctx, const PackedScene<T>& ps, unsigned features
     info->program_cached = !built_now || entry.from_cache;
     info->render_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    info->transfer_ms = transfer_ms;
   }
   return image;
 }

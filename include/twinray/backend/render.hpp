@@ -8,6 +8,7 @@
 #include <chrono>
 #include <string>
 
+#include <twinray/backend/adaptive.hpp>
 #include <twinray/backend/cpu.hpp>
 #include <twinray/core/error.hpp>
 #include <twinray/core/fp_contract_check.hpp>
@@ -58,6 +59,8 @@ Image<T> render_packed(const PackedScene<T>& ps, unsigned features, const Render
     log_note(options, backend == Backend::OpenCL ? "backend auto: using OpenCL"
                                                  : "backend auto: using the CPU (" + why + ")");
   }
+  if (options.adaptive_spp > 0 && options.output == Output::Shaded)
+    return adaptive::render_packed(ps, features, backend, options, info);
   if (backend == Backend::OpenCL) {
 #ifdef TWINRAY_WITH_OPENCL
     return opencl::render_packed(opencl::shared_context(options.device), ps, features,

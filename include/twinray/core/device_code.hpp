@@ -49,7 +49,7 @@ static_assert(sizeof(f32::TrPlane) == 32 && sizeof(f64::TrPlane) == 56, "TrPlane
 static_assert(sizeof(f32::TrMaterial) == 32 && sizeof(f64::TrMaterial) == 64, "TrMaterial layout");
 static_assert(sizeof(f32::TrLight) == 24 && sizeof(f64::TrLight) == 48, "TrLight layout");
 static_assert(sizeof(f32::TrBvhNode) == 32 && sizeof(f64::TrBvhNode) == 56, "TrBvhNode layout");
-static_assert(sizeof(f32::TrParams) == 72 + 48 && sizeof(f64::TrParams) == 144 + 48,
+static_assert(sizeof(f32::TrParams) == 76 + 56 && sizeof(f64::TrParams) == 152 + 56,
               "TrParams layout");
 
 // Maps the scalar type T to its instantiation of the device code.

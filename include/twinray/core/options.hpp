@@ -21,8 +21,23 @@ enum Terms : unsigned {
   kAllTerms = 7u,
 };
 
-// Sub-pixel sample placement (device/sampling.h).
-enum class Sampler { Grid = 0 };
+// Sub-pixel sample placement (device/sampling.h): regular grid, stratified (jittered
+// grid cells), or the R2 low-discrepancy sequence shifted per pixel.
+enum class Sampler { Grid = 0, Stratified = 1, R2 = 2 };
+
+inline const char* to_string(Sampler s) {
+  return s == Sampler::Grid ? "grid" : (s == Sampler::Stratified ? "stratified" : "r2");
+}
+
+// "grid", "stratified", "r2" -> the sampler; false when the name is none of them.
+inline bool parse_sampler(const std::string& name, Sampler* out) {
+  for (Sampler s : {Sampler::Grid, Sampler::Stratified, Sampler::R2})
+    if (name == to_string(s)) {
+      *out = s;
+      return true;
+    }
+  return false;
+}
 
 // What the framebuffer holds: the shaded image, or an arbitrary output variable of
 // the primary ray through each pixel center (device/trace.h tr_render_aov).
@@ -36,6 +51,13 @@ struct RenderOptions {
   bool glaze = true;    // trace reflected rays off glazed surfaces
   unsigned terms = kAllTerms;
   Sampler sampler = Sampler::Grid;
+  int seed = 0;  // sampler seed: stratified jitter and R2's per-pixel shift
+  // Adaptive anti-aliasing (device/adaptive.h): 0 = off; otherwise a first pass of
+  // `spp` samples in every pixel, then `adaptive_spp` (> spp) in every pixel whose
+  // contrast (largest per-channel range of its samples and difference to the means of
+  // its 8 neighbours, linear units) is above `adaptive_threshold`.
+  int adaptive_spp = 0;
+  double adaptive_threshold = 1.0 / 32;
   Output output = Output::Shaded;
   int threads = 0;  // CPU backend threads; 0 = all cores
   int device = -1;  // OpenCL device index over all platforms (twinray info); -1 = first
@@ -57,6 +79,9 @@ struct RenderInfo {
   bool program_cached = false;     // the program came from a cache
   double render_ms = 0;            // rendering, transfers included
   long long rays = 0;              // estimate filled by benchmarks
+  double transfer_ms = 0;          // host<->device copies inside render_ms (0 on the CPU)
+  long long refined_pixels = 0;    // adaptive sampling: pixels that got adaptive_spp
+  long long samples = 0;           // adaptive sampling: camera samples traced in all
 };
 
 inline void log_note(const RenderOptions& options, const std::string& message) {

@@ -101,7 +101,8 @@ PackedScene<T> pack(const Scene<T>& scene, const Camera<T>& camera, const Render
   }
 
   // Spheres and triangles go into a BVH from the measured threshold on (core/bvh.hpp).
-  if (ps.spheres.size() + ps.triangles.size() >= static_cast<size_t>(bvh::kMinPrimitives))
+  if (bvh::worth_building(static_cast<long long>(ps.spheres.size()),
+                          static_cast<long long>(ps.triangles.size())))
     bvh::build(ps, options.threads);
 
   CameraFrame<T> cf = camera.frame();
@@ -118,6 +119,9 @@ PackedScene<T> pack(const Scene<T>& scene, const Camera<T>& camera, const Render
   p.projection = static_cast<int>(camera.projection);
   p.spp = options.output == Output::Shaded ? options.spp : 1;
   p.sampler = static_cast<int>(options.sampler);
+  p.seed = options.seed;
+  p.adaptive_spp = 0;  // backend/adaptive.hpp sets it for its own passes
+  p.adaptive_threshold = static_cast<T>(options.adaptive_threshold);
   p.max_depth = options.max_depth;
   p.n_spheres = static_cast<int>(ps.spheres.size());
   p.n_triangles = static_cast<int>(ps.triangles.size());

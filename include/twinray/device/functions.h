@@ -14,3 +14,4 @@
 #include "scene_hit.h"
 #include "shading.h"
 #include "trace.h"
+#include "adaptive.h"

@@ -34,7 +34,7 @@ TR_FN vec3 tr_render_pixel(const TrSceneRef* s, int px, int py) {
   TR_GLOBAL const TrParams* p = s->params;
   vec3 sum = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
   for (int i = 0; i < p->spp; ++i) {
-    TrSample2 smp = tr_sample_position(p->sampler, i, p->spp, px, py);
+    TrSample2 smp = tr_sample_position_seeded(p->sampler, p->seed, i, p->spp, px, py);
     sum = sum + tr_trace(s, tr_camera_ray(p, px, py, smp));
   }
   return sum * (TR_R(1.0) / (real)p->spp);

@@ -54,9 +54,12 @@ typedef struct TrParams {
   real dv_x, dv_y, dv_z;                            /* one pixel down */
   real ortho_dir_x, ortho_dir_y, ortho_dir_z;       /* -W, the orthographic ray direction */
   real bg_r, bg_g, bg_b;                            /* background color */
+  real adaptive_threshold; /* refine a pixel whose contrast exceeds it (device/adaptive.h) */
   int width, height;
   int projection; /* 0 perspective, 1 orthographic */
   int spp, sampler, max_depth;
+  int seed;         /* sampler seed: jitter and per-pixel shifts (device/sampling.h) */
+  int adaptive_spp; /* samples of a refined pixel; 0: adaptive sampling off */
   int n_spheres, n_triangles, n_planes, n_lights, n_bvh_nodes;
   int features; /* the run-time Features mask: switches inside the compiled ones */
 } TrParams;
