@@ -406,6 +406,7 @@ class SceneReader {
     if (const Json* a = optional(root, "animation")) {
       require_object(*a, "animation");
       out.animation = *a;
+      read_animation(*this, *a, out.scene, out.camera);  // io/animation_json.hpp
     }
   }
 
@@ -718,3 +719,6 @@ SceneFile<T> load_scene(const std::string& path, const SceneLimits& limits = {})
 
 }  // namespace io
 }  // namespace twinray
+
+// The `animation` section, checked by SceneReader::read() above.
+#include <twinray/io/animation_json.hpp>
