@@ -128,7 +128,7 @@ Row run(const BenchScene<T>& b, twinray::Backend backend, const Config& config) 
   row.width = b.camera.width;
   row.height = b.camera.height;
   row.spp = b.spp;
-  twinray::RenderOptions options;
+  twinray::RenderOptions options = b.options;
   options.backend = backend;
   options.spp = b.spp;
   options.threads = config.threads;

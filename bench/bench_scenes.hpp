@@ -48,6 +48,9 @@ struct BenchScene {
   twinray::Scene<T> scene;
   twinray::Camera<T> camera;
   int spp = 1;
+  // Render options other than backend, spp and threads (scene files bring their own:
+  // max_depth, shadows, glaze, terms). Default: shadows on, up to 4 ray segments.
+  twinray::RenderOptions options;
   double load_ms = 0;  // OBJ parse time, obj_* scenes only
 };
 

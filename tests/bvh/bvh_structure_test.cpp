@@ -195,12 +195,18 @@ TEST_CASE_TEMPLATE("bvh: traversal finds exactly the linear loops' closest hit",
 TEST_CASE("bvh: pack builds one from the threshold on, and not below it") {
   twinray::RenderOptions options;
   auto camera = bvh_test::test_camera<float>(8, 8);
-  int k = twinray::bvh::kMinPrimitives;
-  auto below = twinray::pack(bvh_test::random_scene<float>(k - 2, 1, 1u), camera, options);
-  auto at = twinray::pack(bvh_test::random_scene<float>(k - 1, 1, 1u), camera, options);
-  CHECK(below.bvh_nodes.empty());
-  CHECK((below.features & TR_F_BVH) == 0u);
-  CHECK(!at.bvh_nodes.empty());
-  CHECK((at.features & TR_F_BVH) != 0u);
-  CHECK(at.params.n_bvh_nodes == static_cast<int>(at.bvh_nodes.size()));
+  auto has_bvh = [&](int n_spheres, int n_triangles) {
+    auto ps =
+        twinray::pack(bvh_test::random_scene<float>(n_spheres, n_triangles, 1u), camera, options);
+    CHECK(ps.params.n_bvh_nodes == static_cast<int>(ps.bvh_nodes.size()));
+    CHECK(((ps.features & TR_F_BVH) != 0u) == !ps.bvh_nodes.empty());
+    return !ps.bvh_nodes.empty();
+  };
+  const int w = static_cast<int>(twinray::bvh::kMinWeight);
+  const int tw = twinray::bvh::kTriangleWeight;
+  CHECK(!has_bvh(w - 1, 0));
+  CHECK(has_bvh(w, 0));
+  CHECK(!has_bvh(0, (w - 1) / tw));
+  CHECK(has_bvh(0, (w + tw - 1) / tw));
+  CHECK(has_bvh(3, 4));  // the demo's spheres and triangles
 }

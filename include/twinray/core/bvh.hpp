@@ -39,11 +39,18 @@ struct PackedScene;
 
 namespace bvh {
 
-// Scenes with fewer spheres + triangles than this skip the BVH (linear loops are
-// faster there). Measured on the 2-core build machine with bench/bvh_threshold
-// (docs/performance.md): the BVH wins from about this many primitives on, on both
-// backends.
-constexpr int kMinPrimitives = 16;
+// Small scenes skip the BVH: linear loops are faster there. The rule weighs a
+// triangle as 4 spheres (the watertight triangle test costs several sphere tests) and
+// builds the BVH from a weight of 8 on. Measured on the 2-core build machine with
+// bench/twinray_bench --bvh on|off at 640x360, both backends (docs/performance.md):
+// 1-8 spheres break even within the noise, 16 spheres gain 1.3-1.7x, 16 triangles
+// 3.5-4x, the demo's 3 spheres + 4 triangles 1.7-2x.
+constexpr int kTriangleWeight = 4;
+constexpr long long kMinWeight = 8;
+
+inline bool worth_building(long long n_spheres, long long n_triangles) {
+  return n_spheres + kTriangleWeight * n_triangles >= kMinWeight;
+}
 
 constexpr int kMaxDepth = 48;             // leaf depth cap; TR_BVH_STACK_SIZE >= kMaxDepth + 1
 constexpr int kMaxLeafSize = 8;           // SAH leaves hold at most this many primitives

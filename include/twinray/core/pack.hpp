@@ -101,7 +101,8 @@ PackedScene<T> pack(const Scene<T>& scene, const Camera<T>& camera, const Render
   }
 
   // Spheres and triangles go into a BVH from the measured threshold on (core/bvh.hpp).
-  if (ps.spheres.size() + ps.triangles.size() >= static_cast<size_t>(bvh::kMinPrimitives))
+  if (bvh::worth_building(static_cast<long long>(ps.spheres.size()),
+                          static_cast<long long>(ps.triangles.size())))
     bvh::build(ps, options.threads);
 
   CameraFrame<T> cf = camera.frame();
