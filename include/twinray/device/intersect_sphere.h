@@ -1,13 +1,44 @@
 /* Ray/sphere intersection, numerically stable (Haines, Guenther, Akenine-Moeller,
  * "Precision Improvements for Ray/Sphere Intersection", Ray Tracing Gems ch. 7,
- * eqs. 7-10):
- *  - the discriminant is r^2 - |f - (f.d/d.d) d|^2, subtracted before it is squared,
- *    so a tiny sphere far away keeps its radius's bits (Hearn and Baker);
- *  - the roots are q/a and c/q with q = b' + sign(b') sqrt(a D), so the near root of a
- *    huge sphere close by does not cancel (Press et al., Numerical Recipes 5.6).
+ * eqs. 7-10), with f = o - center, a = d.d, b = -f.d, c = f.f - r^2:
+ *  - the roots are c/q and q/a with q = b + sign(b) sqrt(a D), so the near root of a
+ *    huge sphere close by does not cancel (Press et al., Numerical Recipes 5.6);
+ *  - a D, the discriminant, is taken in whichever of its two exact forms is accurate
+ *    for this ray: a (r^2 - |f + (b/a) d|^2), subtracted before it is squared (Hearn and
+ *    Baker), for a sphere small against its distance, where b^2 and a c are both about
+ *    |f|^2 and cancel; or b^2 - a c when 2 b^2 + a|c| < a r^2, i.e. when the origin is
+ *    near a big sphere and the ray is not near its tangent: there |f + (b/a) d|^2 is
+ *    about r^2 and the first form keeps only ~u r^2 of absolute accuracy, which in float
+ *    gave 2e4 ulp of t error on a 1e5-radius ground sphere (tests/robustness);
+ *  - c itself cancels when the origin is near the surface (shadow and reflected rays,
+ *    a camera close to a huge sphere): then it is recomputed from the exact difference
+ *    o - center and exact squares (tr_sphere_c_accurate).
  * The hit point is then projected back onto the sphere and given pbrt-v4's error bound
  * (Sphere::BasicIntersect: p <- p r/|p|, pError = gamma(5)|p| in object space), plus the
  * rounding of the translation back to world space. */
+
+/* c = |o - center|^2 - r^2 to about one rounding of c itself, however much it cancels:
+ * o - center = h + l exactly (TwoSum), h_i^2 and r^2 as exact two-term products, and
+ * |o - center|^2 = sum h_i^2 + 2 sum h_i l_i + sum l_i^2, the last term below u^2 |f|^2
+ * and dropped; the terms are added by Sum2 (Ogita, Rump, Oishi 2005). */
+TR_FN real tr_sphere_c_accurate(vec3 o, vec3 center, real r) {
+  real lx, ly, lz, ex, ey, ez, er, e, sum_err;
+  real hx = tr_two_sum(o.x, -center.x, &lx);
+  real hy = tr_two_sum(o.y, -center.y, &ly);
+  real hz = tr_two_sum(o.z, -center.z, &lz);
+  real px = tr_two_square(hx, &ex);
+  real py = tr_two_square(hy, &ey);
+  real pz = tr_two_square(hz, &ez);
+  real pr = tr_two_square(r, &er);
+  real s = tr_two_sum(px, py, &e);
+  sum_err = e;
+  s = tr_two_sum(s, pz, &e);
+  sum_err = sum_err + e;
+  s = tr_two_sum(s, -pr, &e);
+  sum_err = sum_err + e;
+  sum_err = sum_err + ((ex + ey) + (ez - er)) + TR_R(2.0) * ((hx * lx + hy * ly) + hz * lz);
+  return s + sum_err;
+}
 
 TR_FN int tr_intersect_sphere(TR_GLOBAL const TrSphere* sp, TrRay ray, real tmax, TrHit* hit) {
   vec3 center = TR_VEC3(sp->cx, sp->cy, sp->cz);
@@ -15,11 +46,21 @@ TR_FN int tr_intersect_sphere(TR_GLOBAL const TrSphere* sp, TrRay ray, real tmax
   vec3 f = ray.o - center;
   real a = tr_dot(ray.d, ray.d);
   real b = -tr_dot(f, ray.d); /* b' in the chapter */
-  vec3 perp = f + ray.d * (b / a);
-  real disc = r * r - tr_dot(perp, perp);
-  if (disc < TR_R(0.0)) return 0;
-  real c = tr_dot(f, f) - r * r;
-  real q = b + (b >= TR_R(0.0) ? sqrt(a * disc) : -sqrt(a * disc));
+  real ff = tr_dot(f, f);
+  real r2 = r * r;
+  real c = ff - r2;
+  /* Rounded, c is off by up to gamma(4) (f.f + r^2); below half of that sum it would
+   * carry more than 8 ulp of error, so recompute it (relative test: any scale). */
+  if (fabs(c) < TR_R(0.5) * (ff + r2)) c = tr_sphere_c_accurate(ray.o, center, r);
+  real root_arg; /* a D */
+  if (TR_R(2.0) * (b * b) + a * fabs(c) < a * r2) {
+    root_arg = b * b - a * c;
+  } else {
+    vec3 perp = f + ray.d * (b / a);
+    root_arg = a * (r2 - tr_dot(perp, perp));
+  }
+  if (root_arg < TR_R(0.0)) return 0;
+  real q = b + (b >= TR_R(0.0) ? sqrt(root_arg) : -sqrt(root_arg));
   if (q == TR_R(0.0)) return 0; /* origin on the sphere and tangent: no finite root */
   real t0 = c / q;
   real t1 = q / a;

@@ -57,19 +57,29 @@ TR_FN int tr_intersect_triangle(TR_GLOBAL const TrTriangle* tri, TrRay ray, real
   real b0 = e0 * inv_det, b1 = e1 * inv_det, b2 = e2 * inv_det;
   real t = t_scaled * inv_det;
 
-  /* Reject t below its conservative error bound (pbrt-v4, "Ensure that computed
-   * triangle t is conservatively greater than zero"). */
-  real max_zt = tr_max_component(tr_abs3(TR_VEC3(az, bz, cz)));
-  real max_xt = tr_max_component(tr_abs3(TR_VEC3(ax, bx, cx)));
-  real max_yt = tr_max_component(tr_abs3(TR_VEC3(ay, by, cy)));
-  real delta_z = tr_gamma(3) * max_zt;
-  real delta_x = tr_gamma(5) * (max_xt + max_zt);
-  real delta_y = tr_gamma(5) * (max_yt + max_zt);
-  real delta_e = TR_R(2.0) * (tr_gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
-  real max_e = tr_max_component(tr_abs3(TR_VEC3(e0, e1, e2)));
-  real delta_t = TR_R(3.0) * (tr_gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) *
-                 fabs(inv_det);
-  if (!(t > delta_t)) return 0;
+  /* t is the barycentric average of the vertices' ray-space depths az, bz, cz (the
+   * t at which the ray reaches each vertex's depth): when all three are > 0 (an exact
+   * test: each is a rounded product of nonzero signed factors), the true t and the
+   * computed one (a sum of same-signed terms over another) are > 0 for sure. Only
+   * otherwise, when the triangle straddles the origin's plane (a ray leaving a surface),
+   * reject t below pbrt-v4's conservative bound on its error ("Ensure that computed
+   * triangle t is conservatively greater than zero"). That bound is loose for a needle:
+   * det is tiny next to |e| max|x||y|, delta_t exceeded t and rays through the
+   * needle's shared edges leaked (tests/robustness, aspect 1e7 in float). */
+  if (!(tr_min(az, tr_min(bz, cz)) > TR_R(0.0))) {
+    real max_zt = tr_max_component(tr_abs3(TR_VEC3(az, bz, cz)));
+    real max_xt = tr_max_component(tr_abs3(TR_VEC3(ax, bx, cx)));
+    real max_yt = tr_max_component(tr_abs3(TR_VEC3(ay, by, cy)));
+    real delta_z = tr_gamma(3) * max_zt;
+    real delta_x = tr_gamma(5) * (max_xt + max_zt);
+    real delta_y = tr_gamma(5) * (max_yt + max_zt);
+    real delta_e =
+        TR_R(2.0) * (tr_gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    real max_e = tr_max_component(tr_abs3(TR_VEC3(e0, e1, e2)));
+    real delta_t = TR_R(3.0) * (tr_gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) *
+                   fabs(inv_det);
+    if (!(t > delta_t)) return 0;
+  }
 
   /* Zero-area triangles have no normal: never hit them. */
   vec3 normal = tr_cross(p1 - p0, p2 - p0);

@@ -54,6 +54,31 @@ TR_FN real tr_gamma(int n) {
   return nu / (TR_R(1.0) - nu);
 }
 
+/* Error-free transformations, exact with round-to-nearest and no contraction (the
+ * parity rules guarantee both), from + - * only:
+ *  - TwoSum (Knuth, TAOCP vol. 2, 4.2.2): a + b = s + e exactly;
+ *  - Veltkamp's split and Dekker's product ("A floating-point technique for extending
+ *    the available precision", Numer. Math. 18, 1971): a * a = p + e exactly, valid
+ *    while splitter * a does not overflow (|a| < 2^115 in float, 2^995 in double).
+ * Ogita, Rump and Oishi's Sum2 ("Accurate sum and dot product", SISC 26(6), 2005)
+ * combines them into sums as accurate as if computed in twice the precision. */
+TR_FN real tr_two_sum(real a, real b, real* err) {
+  real s = a + b;
+  real bb = s - a;
+  *err = (a - (s - bb)) + (b - bb);
+  return s;
+}
+
+TR_FN real tr_two_square(real a, real* err) {
+  real splitter = sizeof(real) == 4 ? TR_R(4097.0) : TR_R(134217729.0); /* 2^12+1, 2^27+1 */
+  real c = splitter * a;
+  real hi = c - (c - a);
+  real lo = a - hi;
+  real p = a * a;
+  *err = ((hi * hi - p) + TR_R(2.0) * hi * lo) + lo * lo;
+  return p;
+}
+
 /* x^p for x in [0, 1] and any real p >= 0, from exactly rounded operations only, so
  * both sides agree bit for bit (the built-in pow differs by 1-2 ulp between glibc and
  * PoCL's SLEEF). The integer part of p goes by repeated squaring; the fractional part
