@@ -68,14 +68,14 @@ struct Box {
                   -std::numeric_limits<double>::infinity()};
   void grow(const Box& b) {
     for (int a = 0; a < 3; ++a) {
-      lo[a] = std::min(lo[a], b.lo[a]);
-      hi[a] = std::max(hi[a], b.hi[a]);
+      lo[a] = b.lo[a] < lo[a] ? b.lo[a] : lo[a];
+      hi[a] = b.hi[a] > hi[a] ? b.hi[a] : hi[a];
     }
   }
   void grow(const double p[3]) {
     for (int a = 0; a < 3; ++a) {
-      lo[a] = std::min(lo[a], p[a]);
-      hi[a] = std::max(hi[a], p[a]);
+      lo[a] = p[a] < lo[a] ? p[a] : lo[a];
+      hi[a] = p[a] > hi[a] ? p[a] : hi[a];
     }
   }
   bool empty() const { return lo[0] > hi[0]; }
@@ -229,34 +229,43 @@ struct Builder {
       Box box;
       int count = 0;
     };
+    // One pass over the primitives bins them along all three axes at once.
+    std::array<std::array<Bin, kBins>, 3> bins;
+    double scale[3];
+    bool usable[3];
+    for (int a = 0; a < 3; ++a) {
+      double extent = cbox.hi[a] - cbox.lo[a];
+      usable[a] = extent > 0;
+      scale[a] = usable[a] ? kBins / extent : 0;
+    }
+    for (int i = begin; i < end; ++i) {
+      const PrimRef& r = refs[i];
+      for (int a = 0; a < 3; ++a) {
+        int b = std::min(kBins - 1, static_cast<int>((r.centroid[a] - cbox.lo[a]) * scale[a]));
+        bins[a][b].count++;
+        bins[a][b].box.grow(r.box);
+      }
+    }
     double best_cost = std::numeric_limits<double>::infinity();
     int best_axis = -1, best_bin = -1;
     for (int a = 0; a < 3; ++a) {
-      double extent = cbox.hi[a] - cbox.lo[a];
-      if (!(extent > 0)) continue;
-      double scale = kBins / extent;
-      std::array<Bin, kBins> bins;
-      for (int i = begin; i < end; ++i) {
-        int b = std::min(kBins - 1, static_cast<int>((refs[i].centroid[a] - cbox.lo[a]) * scale));
-        bins[b].count++;
-        bins[b].box.grow(refs[i].box);
-      }
+      if (!usable[a]) continue;
       // Sweep from the right for the right-side areas, then from the left.
       std::array<double, kBins> right_area{};
       std::array<int, kBins> right_count{};
       Box acc;
       int count = 0;
       for (int b = kBins - 1; b > 0; --b) {
-        acc.grow(bins[b].box);
-        count += bins[b].count;
+        acc.grow(bins[a][b].box);
+        count += bins[a][b].count;
         right_area[b] = acc.half_area();
         right_count[b] = count;
       }
       acc = Box();
       count = 0;
       for (int b = 0; b < kBins - 1; ++b) {
-        acc.grow(bins[b].box);
-        count += bins[b].count;
+        acc.grow(bins[a][b].box);
+        count += bins[a][b].count;
         if (count == 0 || right_count[b + 1] == 0) continue;
         double cost = acc.half_area() * count + right_area[b + 1] * right_count[b + 1];
         if (cost < best_cost) {
@@ -275,12 +284,11 @@ struct Builder {
     }
     double split_cost = kTraversalCost + (area > 0 ? best_cost / area : static_cast<double>(n));
     if (n <= kMaxLeafSize && leaf_cost <= split_cost) return -1;
-    double extent = cbox.hi[best_axis] - cbox.lo[best_axis];
-    double scale = kBins / extent;
-    double lo = cbox.lo[best_axis];
-    int a = best_axis, split = best_bin;
+    // The same bin computation as above, so each primitive goes where it was counted.
+    const int a = best_axis, split = best_bin;
+    const double lo = cbox.lo[a], s = scale[a];
     auto it = std::partition(refs.begin() + begin, refs.begin() + end, [&](const PrimRef& r) {
-      return std::min(kBins - 1, static_cast<int>((r.centroid[a] - lo) * scale)) <= split;
+      return std::min(kBins - 1, static_cast<int>((r.centroid[a] - lo) * s)) <= split;
     });
     *axis = a;
     return static_cast<int>(it - refs.begin());
