@@ -24,10 +24,12 @@ struct BenchArgs {
 };
 
 bool is_builtin(const std::string& name) {
-  for (const std::string& prefix : {"spheres_", "mesh_", "obj_"})
+  for (const char* p : {"spheres_", "mesh_", "obj_"}) {
+    std::string prefix = p;
     if (name.compare(0, prefix.size(), prefix) == 0 &&
         twinray_bench::parse_count(name.substr(prefix.size())) > 0)
       return true;
+  }
   return name == "demo" || name == "demo_4spp";
 }
 
