@@ -10,6 +10,7 @@
 #include <iostream>
 #include <memory>
 #include <new>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -35,6 +36,21 @@ int main(int argc, char** argv) {
   for (const twinray_cli::CommandEntry& c : twinray_cli::registered_commands()) {
     CLI::App* sub = app.add_subcommand(c.name, c.description);
     runs.emplace_back(sub, c.setup(*sub));
+  }
+
+  // CLI11 reads an unknown word as a stray argument ("A subcommand is required"); name it.
+  if (argc > 1 && argv[1][0] != '-') {
+    std::string names;
+    bool known = false;
+    for (auto& entry : runs) {
+      names += (names.empty() ? "" : ", ") + entry.first->get_name();
+      known = known || entry.first->get_name() == argv[1];
+    }
+    if (!known) {
+      std::cerr << "twinray: unknown subcommand \"" << argv[1] << "\"; the subcommands are "
+                << names << " (twinray --help)\n";
+      return kExitBadInput;
+    }
   }
 
   try {

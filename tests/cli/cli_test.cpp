@@ -1,0 +1,560 @@
+// Tests of the real `twinray` program (shared/CLI.md): exit statuses, malformed scene
+// files, atomic outputs, the OpenCL backend missing, the progress bar, and bit-exact
+// images: demo.json against examples/demo.cpp, and CPU against OpenCL.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <twinray/io/pfm.hpp>
+
+#include "run_program.hpp"
+
+using cli_test::fresh_folder;
+using cli_test::listing;
+using cli_test::read_file;
+using cli_test::Result;
+using cli_test::run;
+using cli_test::write_file;
+
+namespace {
+
+const std::string kTwinray = TWINRAY_EXE;
+const std::string kDemo = TWINRAY_DEMO_EXE;
+const std::string kScenes = TWINRAY_SCENES_DIR;
+const std::string kWork = TWINRAY_TEST_WORK_DIR;
+
+Result run_twinray(std::vector<std::string> args, const std::string& cwd = "",
+                   const std::vector<std::string>& env = {}) {
+  args.insert(args.begin(), kTwinray);
+  return run(args, cwd, env);
+}
+
+bool contains(const std::string& haystack, const std::string& needle) {
+  return haystack.find(needle) != std::string::npos;
+}
+
+// A small valid scene using every key of SCENE_FORMAT.md; the malformed files below
+// are this with one mistake each.
+const std::string kGoodScene = R"({
+  "twinray": 1,
+  "image": { "width": 8, "height": 6, "background": [0, 0, 0] },
+  "camera": { "projection": "perspective", "position": [0, 0, 5], "look_at": [0, 0, 0],
+              "up": [0, 1, 0], "focal_length": 5, "viewplane_height": 4 },
+  "render": { "spp": 1, "max_depth": 2, "shadows": true, "glaze": true,
+              "terms": ["ambient", "diffuse"] },
+  "materials": {
+    "red": { "color": [1, 0, 0], "ka": 0.1, "kd": 0.7, "ks": 0.2, "shininess": 10, "glaze": 0.1 }
+  },
+  "lights": [ { "type": "point", "position": [2, 2, 2], "intensity": 5, "color": [1, 1, 1] } ],
+  "objects": [
+    { "type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "red" },
+    { "type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0], "material": "red" },
+    { "type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "material": "red" },
+    { "type": "mesh", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]],
+      "triangles": [[0, 1, 2], [0, 1, 3]], "material": { "color": [0, 1, 0] } }
+  ]
+})";
+
+const std::string kInlineMesh =
+    R"({ "type": "mesh", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]],
+      "triangles": [[0, 1, 2], [0, 1, 3]], "material": { "color": [0, 1, 0] } })";
+
+// kGoodScene with `from` replaced by `to` (which must occur exactly once).
+std::string edit(const std::string& from, const std::string& to) {
+  size_t at = kGoodScene.find(from);
+  REQUIRE_MESSAGE(at != std::string::npos, "not in the scene: " << from);
+  REQUIRE_MESSAGE(kGoodScene.find(from, at + 1) == std::string::npos, "twice: " << from);
+  std::string s = kGoodScene;
+  s.replace(at, from.size(), to);
+  return s;
+}
+
+struct BadScene {
+  std::string text;
+  std::string message;  // must appear right after "FILE: " in the error
+  std::string also;     // and this anywhere in it
+};
+
+std::vector<BadScene> bad_scenes() {
+  std::string deep = "[";
+  for (int i = 0; i < 80; ++i) deep += "[";
+  for (int i = 0; i < 81; ++i) deep += "]";
+  return {
+      // JSON itself
+      {"", "invalid JSON at line 1, column 1"},
+      {kGoodScene.substr(0, kGoodScene.size() - 20), "invalid JSON"},
+      {edit(R"("material": "red" },
+    { "type": "plane")",
+            R"("material": "red" },,
+    { "type": "plane")"),
+       "invalid JSON at line 13"},
+      {edit("[0, 0, 5]", "[0, NaN, 5]"), "invalid JSON at line 4",
+       "(near camera.position[1]): syntax error"},
+      {"[1, 2, 3]", "(top level): must be an object, got an array of 3"},
+      {edit(R"("radius": 1,)", R"("radius": 1, "radius": 2,)"), "objects[0].radius: duplicate key"},
+      {edit(R"("twinray": 1,)", R"("twinray": 1, "animation": { "path": )" + deep + "},"),
+       "animation.path[0][0]", "]: nested deeper than 64 levels"},
+      // the document
+      {edit(R"("twinray": 1,)", ""), "twinray: missing (required)"},
+      {edit(R"("twinray": 1,)", R"("twinray": 2,)"), "twinray: unsupported format version 2"},
+      {edit(R"("twinray": 1,)", R"("twinray": 1, "lihgts": [],)"),
+       "lihgts: unknown key (did you mean \"lights\"?)"},
+      {edit(R"("twinray": 1,)", R"("twinray": 1, "animation": 5,)"),
+       "animation: must be an object, got a number (5)"},
+      // image
+      {edit(R"("width": 8,)", R"("width": 0,)"),
+       "image.width: must be an integer in [1, 65536], got 0"},
+      {edit(R"("width": 8,)", R"("width": 8.5,)"), "image.width: must be an integer"},
+      {edit(R"("width": 8,)", R"("width": "8",)"), "image.width: must be an integer"},
+      {edit(R"("width": 8,)", R"("width": 99999999999999999999999,)"), "image.width: must be"},
+      {edit(R"("width": 8, "height": 6,)", R"("width": 65536, "height": 65536,)"),
+       "image: width x height must be at most"},
+      {edit(R"("height": 6,)", ""), "image.height: missing (required)"},
+      {edit(R"("background": [0, 0, 0])", R"("background": [0, 0])"),
+       "image.background: must be an array of 3 numbers, got an array of 2"},
+      {edit(R"("background": [0, 0, 0])", R"("background": [0, 2, 0])"),
+       "image.background[1]: must be in [0, 1], got 2"},
+      // camera
+      {edit(R"("projection": "perspective")", R"("projection": "fisheye")"),
+       "camera.projection: must be \"perspective\", \"orthographic\", got \"fisheye\""},
+      {edit(R"("up": [0, 1, 0])", R"("up": [0, 0, 2])"),
+       "camera.up: must not be parallel to look_at - position"},
+      {edit(R"("up": [0, 1, 0])", R"("up": [0, 0, 0])"), "camera.up: must be non-zero"},
+      {edit(R"("look_at": [0, 0, 0])", R"("look_at": [0, 0, 5])"),
+       "camera.look_at: must differ from camera.position"},
+      {edit(R"("focal_length": 5)", R"("focal_length": -1)"),
+       "camera.focal_length: must be > 0, got -1"},
+      {edit(R"("focal_length": 5)", R"("fov": 60)"), "camera.fov: unknown key"},
+      {edit(R"("position": [0, 0, 5])", R"("position": [0, 0, 1e999])"),
+       "camera.position[2]: number out of range"},
+      // render
+      {edit(R"("spp": 1)", R"("spp": 0)"), "render.spp: must be an integer in [1, 65536], got 0"},
+      {edit(R"("max_depth": 2)", R"("max_depth": -3)"), "render.max_depth: must be an integer"},
+      {edit(R"("shadows": true)", R"("shadows": "yes")"),
+       "render.shadows: must be true or false, got a string (\"yes\")"},
+      {edit(R"(["ambient", "diffuse"])", R"(["ambient", "glossy"])"),
+       "render.terms[1]: must be \"ambient\", \"diffuse\", \"specular\", got \"glossy\""},
+      {edit(R"(["ambient", "diffuse"])", R"(["ambient", "ambient"])"),
+       "render.terms[1]: \"ambient\" is listed twice"},
+      // materials
+      {edit(R"("kd": 0.7)", R"("kd": -0.5)"), "materials.red.kd: must be >= 0, got -0.5"},
+      {edit(R"("glaze": 0.1)", R"("glaze": 1.5)"),
+       "materials.red.glaze: must be in [0, 1], got 1.5"},
+      {edit(R"("color": [1, 0, 0])", R"("color": [1, 0, 0, 0])"),
+       "materials.red.color: must be an array of 3 numbers, got an array of 4"},
+      {edit(R"("shininess": 10,)", R"("shininess": 10, "roughness": 0.5,)"),
+       "materials.red.roughness: unknown key"},
+      {edit(R"("materials": {)", R"("materials": { "blue": 3,)"),
+       "materials.blue: must be an object, got a number (3)"},
+      // lights
+      {edit(R"("type": "point")", R"("type": "spot")"), "lights[0].type: must be \"point\""},
+      {edit(R"("intensity": 5)", R"("intensity": -1)"),
+       "lights[0].intensity: must be >= 0, got -1"},
+      {edit(R"("position": [2, 2, 2], )", ""), "lights[0].position: missing (required)"},
+      {edit(R"([ { "type": "point", "position": [2, 2, 2], "intensity": 5, "color": [1, 1, 1] } ])",
+            R"({ "sun": 1 })"),
+       "lights: must be an array, got an object"},
+      // objects
+      {edit(R"("type": "sphere")", R"("type": "cube")"), "objects[0].type: must be \"sphere\""},
+      {edit(R"("radius": 1,)", R"("radius": -1,)"), "objects[0].radius: must be > 0, got -1"},
+      {edit(R"("radius": 1,)", R"("radius": 1e39,)"), "objects[0].radius: 1e+39 overflows float"},
+      {edit(R"("radius": 1,)", R"("radius": 1e-50,)"), "objects[0].radius: must be > 0"},
+      {edit(R"("radius": 1, "material": "red")", R"("radius": 1, "material": "rde")"),
+       "objects[0].material: no material named \"rde\" (did you mean \"red\"?)"},
+      {edit(R"("radius": 1, "material": "red")", R"("radius": 1)"),
+       "objects[0].material: missing (required)"},
+      {edit(R"("normal": [0, 1, 0])", R"("normal": [0, 0, 0])"),
+       "objects[1].normal: must be a non-zero vector"},
+      {edit(R"("vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]])",
+            R"("vertices": [[0, 0, 0], [1, 0, 0]])"),
+       "objects[2].vertices: must be an array of 3 points, got an array of 2"},
+      {edit(R"("vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]])",
+            R"("vertices": [[0, 0, 0], ["1", 0, 0], [0, 1, 0]])"),
+       "objects[2].vertices[1][0]: must be a number, got a string (\"1\")"},
+      {edit("[[0, 1, 2], [0, 1, 3]]", "[[0, 1, 2], [0, 1, 7]]"),
+       "objects[3].triangles[1][2]: vertex index 7 out of range: the mesh has 4 vertices"},
+      {edit("[[0, 1, 2], [0, 1, 3]]", "[[-1, 1, 2], [0, 1, 3]]"),
+       "objects[3].triangles[0][0]: must be an integer in [0, 3], got -1"},
+      {edit("[[0, 1, 2], [0, 1, 3]]", "[[0, 1.5, 2], [0, 1, 3]]"),
+       "objects[3].triangles[0][1]: must be an integer in [0, 3], got 1.5"},
+      {edit("[[0, 1, 2], [0, 1, 3]]", "[[0, 1, 2], [0, 1]]"),
+       "objects[3].triangles[1]: must be an array of 3 vertex indices"},
+      {edit(R"("material": { "color": [0, 1, 0] })", R"("material": { "color": [0, 1.5, 0] })"),
+       "objects[3].material.color[1]: must be in [0, 1], got 1.5"},
+      {edit(kInlineMesh, R"({ "type": "mesh", "obj": "missing.obj", "material": "red" })"),
+       "objects[3].obj: missing.obj: cannot open an OBJ file: No such file or directory"},
+      {edit(kInlineMesh, R"({ "type": "mesh", "obj": "broken.obj", "material": "red" })"),
+       "objects[3].obj: broken.obj: face 1 refers to vertex 9, but only 3 are defined"},
+      {edit(kInlineMesh, R"({ "type": "mesh", "obj": "empty.obj", "material": "red" })"),
+       "objects[3].obj: empty.obj: no vertices"},
+      {edit(kInlineMesh,
+            R"({ "type": "mesh", "obj": "good.obj", "vertices": [], "material": "red" })"),
+       "objects[3].vertices: a mesh takes either \"obj\" or \"vertices\""},
+  };
+}
+
+// The files a scene of the table may name.
+void write_aux_files(const std::string& dir) {
+  write_file(dir + "/good.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 4 3\n");
+  write_file(dir + "/broken.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
+  write_file(dir + "/empty.obj", "# nothing here\n");
+}
+
+}  // namespace
+
+TEST_CASE("the good scene of the malformed-file table renders (status 0)") {
+  std::string dir = fresh_folder(kWork, "good_scene");
+  write_aux_files(dir);
+  write_file(dir + "/good.json", kGoodScene);
+  Result r = run_twinray({"render", "good.json", "-o", "out.png", "--backend", "cpu"}, dir);
+  CHECK_MESSAGE(r.status == 0, r.err);
+  CHECK(std::filesystem::file_size(dir + "/out.png") > 0);
+  // And with the mesh from an .obj file.
+  write_file(dir + "/obj.json",
+             edit(kInlineMesh, R"({ "type": "mesh", "obj": "good.obj", "material": "red" })"));
+  r = run_twinray({"render", "obj.json", "-o", "obj.pfm", "--backend", "cpu"}, dir);
+  CHECK_MESSAGE(r.status == 0, r.err);
+}
+
+TEST_CASE("malformed scene files: status 2, the file and JSON path named, no output") {
+  std::vector<BadScene> cases = bad_scenes();
+  CHECK(cases.size() >= 30);
+  for (size_t i = 0; i < cases.size(); ++i) {
+    const BadScene& c = cases[i];
+    std::string dir = fresh_folder(kWork, "bad_scene_" + std::to_string(i));
+    write_aux_files(dir);
+    std::string name = "bad_" + std::to_string(i) + ".json";
+    write_file(dir + "/" + name, c.text);
+    std::vector<std::string> before = listing(dir);
+    CAPTURE(i);
+    CAPTURE(c.message);
+
+    // No earlier output: none is written.
+    Result r = run_twinray({"render", name, "-o", "out.png", "--backend", "cpu"}, dir);
+    CAPTURE(r.err);
+    CHECK(r.status == 2);
+    CHECK(contains(r.err, "twinray: " + name + ": " + c.message));
+    CHECK(contains(r.err, c.also));
+    CHECK(r.out.empty());
+    CHECK(listing(dir) == before);  // no output, no temporary file
+
+    // An earlier output stays as it was.
+    write_file(dir + "/out.png", "an earlier, good image");
+    r = run_twinray({"render", name, "-o", "out.png", "--backend", "cpu"}, dir);
+    CHECK(r.status == 2);
+    CHECK(read_file(dir + "/out.png") == "an earlier, good image");
+  }
+}
+
+TEST_CASE("a scene file that is missing or a folder: status 2") {
+  std::string dir = fresh_folder(kWork, "missing_scene");
+  Result r = run_twinray({"render", "nothing.json", "-o", "out.png"}, dir);
+  CHECK(r.status == 2);
+  CHECK(contains(r.err, "nothing.json: cannot open a scene file: No such file or directory"));
+  std::filesystem::create_directories(dir + "/folder.json");
+  r = run_twinray({"render", "folder.json", "-o", "out.png"}, dir);
+  CHECK(r.status == 2);
+  CHECK(contains(r.err, "folder.json: is a folder"));
+  CHECK(listing(dir) == std::vector<std::string>{"folder.json"});
+}
+
+TEST_CASE("status 0: render writes the image and prints one summary line") {
+  std::string dir = fresh_folder(kWork, "status0");
+  Result r = run_twinray({"render", "demo", "-o", "demo.png", "--backend", "cpu", "--width", "64",
+                          "--height", "48", "--spp", "2"},
+                         dir);
+  REQUIRE_MESSAGE(r.status == 0, r.err);
+  CHECK(listing(dir) == std::vector<std::string>{"demo.png"});  // no temporary left
+  CHECK(read_file(dir + "/demo.png").substr(1, 3) == "PNG");
+  // One line: output, size, spp, precision, backend, device, time.
+  CHECK(std::count(r.out.begin(), r.out.end(), '\n') == 1);
+  CHECK(contains(r.out, "demo.png: shaded, 64x48, 2 spp, float, backend cpu ("));
+  CHECK(contains(r.out, " ms"));
+  // Not a terminal: no progress bar on stderr.
+  CHECK(r.err.find('\r') == std::string::npos);
+
+  for (const char* ext : {"pfm", "ppm"}) {
+    std::string out = std::string("demo.") + ext;
+    r = run_twinray({"render", "demo", "-o", out, "--backend", "cpu", "--width", "16", "--height",
+                     "8", "--precision", "double"},
+                    dir);
+    CHECK_MESSAGE(r.status == 0, r.err);
+    std::string bytes = read_file(dir + "/" + out);
+    CHECK(bytes.substr(0, 9) == (std::string(ext) == "pfm" ? "PF\n16 8\n-" : "P6\n16 8\n2"));
+  }
+  twinray::Image<float> pfm = twinray::io::read_pfm(dir + "/demo.pfm");
+  CHECK(pfm.width == 16);
+  CHECK(pfm.height == 8);
+}
+
+TEST_CASE("status 0: --help, --version and info") {
+  Result r = run_twinray({"--help"});
+  CHECK(r.status == 0);
+  CHECK(contains(r.out, "render"));
+  CHECK(contains(r.out, "info"));
+  r = run_twinray({"render", "--help"});
+  CHECK(r.status == 0);
+  for (const char* option : {"--backend", "--device", "--precision", "--width", "--height", "--spp",
+                             "--max-depth", "--camera", "--no-shadows", "--no-glaze", "--terms",
+                             "--frame", "--threads", "--aov", "--quiet"})
+    CHECK_MESSAGE(contains(r.out, option), option);
+  r = run_twinray({"--version"});
+  CHECK(r.status == 0);
+  CHECK(contains(r.out, "twinray 0."));
+  r = run_twinray({"info"});
+  CHECK(r.status == 0);
+  CHECK(contains(r.out, "OpenCL"));
+  CHECK(contains(r.out, "scene format:    version 1"));
+}
+
+TEST_CASE("status 1: writing the output fails at run time") {
+  std::string dir = fresh_folder(kWork, "status1");
+  std::filesystem::create_directories(dir + "/taken.png");  // a folder where the file goes
+  Result r = run_twinray(
+      {"render", "demo", "-o", "taken.png", "--backend", "cpu", "--width", "8", "--height", "8"},
+      dir);
+  CHECK(r.status == 1);
+  CHECK(contains(r.err, "taken.png: cannot replace the file"));
+  CHECK(std::filesystem::is_directory(dir + "/taken.png"));
+  CHECK(listing(dir) == std::vector<std::string>{"taken.png"});  // no temporary left
+}
+
+TEST_CASE("status 2: bad command lines, refused before any work") {
+  std::string dir = fresh_folder(kWork, "status2");
+  struct Case {
+    std::vector<std::string> args;
+    std::string message;
+  };
+  std::vector<Case> cases = {
+      {{}, "A subcommand is required"},
+      {{"paint"}, "unknown subcommand \"paint\""},
+      {{"render", "demo"}, "--output is required"},
+      {{"render", "-o", "x.png"}, "SCENE is required"},
+      {{"render", "demo", "-o", "x.png", "--bogus"}, "--bogus"},
+      {{"render", "demo", "-o", "x.png", "--backend", "gpu"}, "--backend"},
+      {{"render", "demo", "-o", "x.png", "--precision", "half"}, "--precision"},
+      {{"render", "demo", "-o", "x.png", "--width", "0"}, "--width"},
+      {{"render", "demo", "-o", "x.png", "--spp", "-2"}, "--spp"},
+      {{"render", "demo", "-o", "x.png", "--max-depth", "abc"}, "--max-depth"},
+      {{"render", "demo", "-o", "x.png", "--camera", "fisheye"}, "--camera"},
+      {{"render", "demo", "-o", "x.png", "--terms", "ambient,glossy"}, "unknown term \"glossy\""},
+      {{"render", "demo", "-o", "x.png", "--terms", "diffuse,diffuse"}, "given twice"},
+      {{"render", "demo", "-o", "x.png", "--aov", "albedo"}, "--aov"},
+      {{"render", "demo", "-o", "x.png", "--aov", "depth"}, "the output must be .pfm"},
+      {{"render", "demo", "-o", "x.jpg"}, "unknown image format \".jpg\""},
+      {{"render", "demo", "-o", "x"}, "unknown image format \"\""},
+      {{"render", "demo", "-o", "no/such/folder/x.png"},
+       "the folder no/such/folder does not exist"},
+      {{"render", "demo", "-o", "x.png", "--frame", "3"}, "--frame 3: demo has no animation"},
+      {{"render", "demo", "-o", "x.png", "--threads", "0"}, "--threads"},
+      {{"render", "demo", "-o", "x.png", "--width", "65536", "--height", "65536"},
+       "is more than the limit of"},
+  };
+  for (const Case& c : cases) {
+    std::vector<std::string> args = c.args;
+    Result r = run_twinray(args, dir);
+    CAPTURE(c.message);
+    CAPTURE(r.err);
+    CHECK(r.status == 2);
+    CHECK(contains(r.err, c.message));
+    CHECK(listing(dir).empty());
+  }
+  // --frame outside the scene's animation: refused, and says why (tests/animation has
+  // the frames that are in it).
+  write_file(dir + "/anim.json",
+             edit(R"("twinray": 1,)", R"("twinray": 1, "animation": { "frames": 10 },)"));
+  Result r = run_twinray({"render", "anim.json", "-o", "x.png", "--frame", "10"}, dir);
+  CHECK(r.status == 2);
+  CHECK(contains(r.err, "frame 10 is not in the animation, which has 10 frames (0 to 9)"));
+}
+
+TEST_CASE("status 3: --backend opencl with no OpenCL platform says so") {
+  std::string dir = fresh_folder(kWork, "status3");
+  std::string vendors = fresh_folder(kWork, "status3_empty_vendors");
+  std::vector<std::string> no_opencl = {"OCL_ICD_VENDORS=" + vendors};
+  Result r = run_twinray({"render", "demo", "-o", "x.png", "--backend", "opencl"}, dir, no_opencl);
+  CHECK(r.status == 3);
+  CHECK(contains(r.err, "the requested backend is not available: no OpenCL device found"));
+  CHECK(listing(dir).empty());
+  // An earlier output stays.
+  write_file(dir + "/x.png", "earlier");
+  r = run_twinray({"render", "demo", "-o", "x.png", "--backend", "opencl"}, dir, no_opencl);
+  CHECK(r.status == 3);
+  CHECK(read_file(dir + "/x.png") == "earlier");
+  // auto falls back to the CPU and says so.
+  r = run_twinray({"render", "demo", "-o", "y.png", "--width", "8", "--height", "8"}, dir,
+                  no_opencl);
+  CHECK_MESSAGE(r.status == 0, r.err);
+  CHECK(contains(r.err, "backend auto: using the CPU"));
+  CHECK(contains(r.out, "backend cpu"));
+  // info still works and says there is none.
+  r = run_twinray({"info"}, dir, no_opencl);
+  CHECK(r.status == 0);
+  CHECK(contains(r.out, "OpenCL devices: none"));
+}
+
+TEST_CASE("status 3: an OpenCL device index that does not exist") {
+  std::string dir = fresh_folder(kWork, "status3_device");
+  Result r =
+      run_twinray({"render", "demo", "-o", "x.png", "--backend", "opencl", "--device", "99"}, dir);
+  CHECK(r.status == 3);
+  CHECK(contains(r.err, "no OpenCL device with index 99"));
+  CHECK(listing(dir).empty());
+}
+
+TEST_CASE("demo.json renders the same bits as the built-in demo, on both backends") {
+  std::string dir = fresh_folder(kWork, "demo_json");
+  for (const char* precision : {"float", "double"}) {
+    std::string reference;
+    for (const char* backend : {"cpu", "opencl"})
+      for (std::string scene : {std::string("demo"), kScenes + "/demo.json"}) {
+        Result r = run_twinray(
+            {"render", scene, "-o", "out.pfm", "--backend", backend, "--precision", precision},
+            dir);
+        CAPTURE(scene);
+        CAPTURE(std::string(backend));
+        CAPTURE(std::string(precision));
+        REQUIRE_MESSAGE(r.status == 0, r.err);
+        std::string bytes = read_file(dir + "/out.pfm");
+        CHECK(bytes.size() == 16 + 400 * 400 * 12);  // "PF\n400 400\n-1.0\n" + RGB floats
+        if (reference.empty())
+          reference = bytes;
+        else
+          CHECK(bytes == reference);
+      }
+  }
+}
+
+TEST_CASE("the seed's comparisons: examples/demo.cpp and the scene files give the same PNGs") {
+  std::string dir = fresh_folder(kWork, "seed");
+  for (const char* backend : {"cpu", "opencl"}) {
+    std::string demo_dir = fresh_folder(kWork, std::string("seed_demo_") + backend);
+    Result d = run({kDemo, "--backend", backend, demo_dir});
+    REQUIRE_MESSAGE(d.status == 0, d.err);
+    struct Variant {
+      std::string name;
+      std::string scene;
+      std::vector<std::string> flags;  // the same variant from demo.json and flags
+    };
+    std::vector<Variant> variants = {
+        {"demo", "demo.json", {}},
+        {"ambient_only", "seed/ambient_only.json", {"--terms", "ambient"}},
+        {"diffuse_only", "seed/diffuse_only.json", {"--terms", "diffuse"}},
+        {"specular_only", "seed/specular_only.json", {"--terms", "specular"}},
+        {"no_shadows", "seed/no_shadows.json", {"--no-shadows"}},
+        {"no_glaze", "seed/no_glaze.json", {"--no-glaze"}},
+        {"all_glazed", "seed/all_glazed.json", {}},
+        {"orthographic", "seed/orthographic.json", {"--camera", "orthographic"}},
+    };
+    for (const Variant& v : variants) {
+      CAPTURE(std::string(backend));
+      CAPTURE(v.name);
+      std::string expected = read_file(demo_dir + "/" + v.name + ".png");
+      REQUIRE(!expected.empty());
+      Result r = run_twinray(
+          {"render", kScenes + "/" + v.scene, "-o", "file.png", "--backend", backend}, dir);
+      REQUIRE_MESSAGE(r.status == 0, r.err);
+      CHECK(read_file(dir + "/file.png") == expected);
+      if (v.name == "all_glazed") continue;  // no flag glazes every material
+      std::vector<std::string> args = {
+          "render", kScenes + "/demo.json", "-o", "flags.png", "--backend", backend};
+      args.insert(args.end(), v.flags.begin(), v.flags.end());
+      r = run_twinray(args, dir);
+      REQUIRE_MESSAGE(r.status == 0, r.err);
+      CHECK(read_file(dir + "/flags.png") == expected);
+    }
+  }
+}
+
+TEST_CASE("AOVs: depth, normal and object index, the same bits on both backends") {
+  std::string dir = fresh_folder(kWork, "aov");
+  for (const char* precision : {"float", "double"})
+    for (std::string scene : {std::string("demo"), kScenes + "/torus.json"})
+      for (const char* aov : {"depth", "normal", "object"}) {
+        CAPTURE(std::string(precision));
+        CAPTURE(scene);
+        CAPTURE(std::string(aov));
+        Result cpu = run_twinray({"render", scene, "-o", "cpu.pfm", "--aov", aov, "--backend",
+                                  "cpu", "--precision", precision},
+                                 dir);
+        REQUIRE_MESSAGE(cpu.status == 0, cpu.err);
+        CHECK(contains(cpu.out, std::string(aov) + " AOV"));
+        Result cl = run_twinray({"render", scene, "-o", "cl.pfm", "--aov", aov, "--backend",
+                                 "opencl", "--precision", precision},
+                                dir);
+        REQUIRE_MESSAGE(cl.status == 0, cl.err);
+        CHECK(read_file(dir + "/cpu.pfm") == read_file(dir + "/cl.pfm"));
+
+        // The values mean what CLI.md says.
+        twinray::Image<float> img = twinray::io::read_pfm(dir + "/cpu.pfm");
+        if (std::string(aov) == "object") {
+          std::set<float> seen;
+          bool integral = true;
+          for (float v : img.rgb) {
+            seen.insert(v);
+            integral = integral && v == std::floor(v) && v >= -1.0f;
+          }
+          CHECK(integral);
+          CHECK(seen.count(-1.0f) == 1);  // the sky above the floor
+          CHECK(seen.size() >= 4);
+        } else if (std::string(aov) == "depth") {
+          size_t finite = 0, bad = 0;
+          for (float v : img.rgb) {
+            bad += v > 0.0f || std::isinf(v) ? 0u : 1u;
+            finite += std::isfinite(v) ? 1u : 0u;
+          }
+          CHECK(bad == 0);
+          CHECK(finite > img.rgb.size() / 2);
+        } else {
+          size_t bad = 0, unit = 0;
+          for (size_t p = 0; p < img.rgb.size(); p += 3) {
+            float x = img.rgb[p], y = img.rgb[p + 1], z = img.rgb[p + 2];
+            float len2 = x * x + y * y + z * z;
+            bool is_unit = std::fabs(len2 - 1.0f) < 1e-4f;
+            bad += len2 == 0.0f || is_unit ? 0u : 1u;
+            unit += is_unit ? 1u : 0u;
+          }
+          CHECK(bad == 0);
+          CHECK(unit > img.rgb.size() / 6);
+        }
+      }
+}
+
+TEST_CASE("the progress bar: on a terminal only, and not with --quiet") {
+  std::string dir = fresh_folder(kWork, "progress");
+  // Long enough that the bar is drawn at least once (it is drawn when rendering starts).
+  std::vector<std::string> args = {kTwinray, "render",  "demo", "-o",       "x.png", "--backend",
+                                   "cpu",    "--width", "64",   "--height", "64"};
+  Result tty = cli_test::run_on_terminal(args, dir);
+  CHECK(tty.status == 0);
+  CHECK(contains(tty.out, "rendering 64x64 ["));
+  CHECK(contains(tty.out, "\r\033[K"));
+  CHECK(contains(tty.out, "x.png: shaded, 64x64"));
+
+  args.push_back("--quiet");
+  Result quiet = cli_test::run_on_terminal(args, dir);
+  CHECK(quiet.status == 0);
+  CHECK(!contains(quiet.out, "rendering 64x64 ["));
+  CHECK(contains(quiet.out, "x.png: shaded, 64x64"));
+}
+
+TEST_CASE("command-line options override the scene file") {
+  std::string dir = fresh_folder(kWork, "overrides");
+  write_file(dir + "/s.json", kGoodScene);
+  Result r = run_twinray({"render", "s.json", "-o", "o.pfm", "--backend", "cpu", "--width", "20",
+                          "--height", "10", "--spp", "3"},
+                         dir);
+  REQUIRE_MESSAGE(r.status == 0, r.err);
+  CHECK(contains(r.out, "20x10, 3 spp"));
+  twinray::Image<float> img = twinray::io::read_pfm(dir + "/o.pfm");
+  CHECK(img.width == 20);
+  CHECK(img.height == 10);
+  // --threads, --max-depth, --no-shadows change nothing that a bad value would.
+  r = run_twinray({"render", "s.json", "-o", "p.pfm", "--backend", "cpu", "--threads", "1",
+                   "--max-depth", "1", "--no-shadows"},
+                  dir);
+  CHECK_MESSAGE(r.status == 0, r.err);
+}

@@ -1,0 +1,240 @@
+// The scene loader (io/scene_json.hpp) and the OBJ loader (io/obj_mesh.hpp), through
+// the API: the shipped scene files hold what they say, limits hold before allocation,
+// and messages have the form `FILE: JSON.PATH: problem`.
+#include <doctest/doctest.h>
+
+#include <string>
+
+#include <twinray/io/scene_json.hpp>
+
+#include "demo_scene.hpp"
+
+namespace {
+
+const std::string kScenes = TWINRAY_SCENES_DIR;
+
+// The message of the InvalidInput error `f` throws ("" when it throws none).
+template <class F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const twinray::Error& e) {
+    CHECK(e.kind() == twinray::ErrorKind::InvalidInput);
+    return e.what();
+  }
+  return "";
+}
+
+const char* kSmall = R"({
+  "twinray": 1,
+  "image": { "width": 4, "height": 3 },
+  "camera": { "projection": "orthographic", "position": [0, 0, 5], "look_at": [0, 0, 0],
+              "up": [0, 1, 0] },
+  "materials": { "m": {} },
+  "objects": [
+    { "type": "mesh", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]],
+      "triangles": [[0, 1, 2], [0, 1, 3]], "material": "m" }
+  ]
+})";
+
+template <class T>
+void check_equal(const twinray::Material<T>& a, const twinray::Material<T>& b) {
+  CHECK(a.color == b.color);
+  CHECK(a.ka == b.ka);
+  CHECK(a.kd == b.kd);
+  CHECK(a.ks == b.ks);
+  CHECK(a.shininess == b.shininess);
+  CHECK(a.glaze == b.glaze);
+}
+
+template <class T>
+void check_equal(const twinray::Object<T>& a, const twinray::Object<T>& b) {
+  REQUIRE(a.index() == b.index());
+  if (auto* s = std::get_if<twinray::Sphere<T>>(&a)) {
+    auto& t = std::get<twinray::Sphere<T>>(b);
+    CHECK(s->center == t.center);
+    CHECK(s->radius == t.radius);
+    CHECK(s->material == t.material);
+  } else if (auto* s = std::get_if<twinray::Triangle<T>>(&a)) {
+    auto& t = std::get<twinray::Triangle<T>>(b);
+    CHECK(s->vertices == t.vertices);
+    CHECK(s->material == t.material);
+  } else if (auto* s = std::get_if<twinray::Plane<T>>(&a)) {
+    auto& t = std::get<twinray::Plane<T>>(b);
+    CHECK(s->point == t.point);
+    CHECK(s->normal == t.normal);
+    CHECK(s->material == t.material);
+  } else {
+    auto& s2 = std::get<twinray::Mesh<T>>(a);
+    auto& t = std::get<twinray::Mesh<T>>(b);
+    CHECK(s2.vertices == t.vertices);
+    CHECK(s2.triangles == t.triangles);
+    CHECK(s2.material == t.material);
+  }
+}
+
+}  // namespace
+
+TEST_CASE_TEMPLATE("demo.json holds exactly the scene of examples/demo_scene.hpp", T, float,
+                   double) {
+  twinray::io::SceneFile<T> f = twinray::io::load_scene<T>(kScenes + "/demo.json");
+  demo::DemoSetup<T> d = demo::make_demo_scene<T>(400, 400);
+  REQUIRE(f.scene.materials.size() == d.scene.materials.size());
+  for (size_t i = 0; i < d.scene.materials.size(); ++i)
+    check_equal(f.scene.materials[i], d.scene.materials[i]);
+  CHECK(f.material_names ==
+        std::vector<std::string>{"green", "cyan", "dark_blue", "lime", "magenta"});
+  REQUIRE(f.scene.objects.size() == d.scene.objects.size());
+  for (size_t i = 0; i < d.scene.objects.size(); ++i) {
+    CAPTURE(i);
+    check_equal(f.scene.objects[i], d.scene.objects[i]);
+  }
+  REQUIRE(f.scene.lights.size() == 1);
+  CHECK(f.scene.lights[0].position == d.scene.lights[0].position);
+  CHECK(f.scene.lights[0].intensity == d.scene.lights[0].intensity);
+  CHECK(f.scene.lights[0].color == d.scene.lights[0].color);
+  CHECK(f.scene.background == d.scene.background);
+  CHECK(f.camera.projection == d.camera.projection);
+  CHECK(f.camera.position == d.camera.position);
+  CHECK(f.camera.look_at == d.camera.look_at);
+  CHECK(f.camera.up == d.camera.up);
+  CHECK(!f.camera.focal_length.has_value());
+  CHECK(f.camera.viewplane_height == d.camera.viewplane_height);
+  CHECK(f.camera.width == 400);
+  CHECK(f.camera.height == 400);
+  twinray::RenderOptions defaults;
+  CHECK(f.options.spp == defaults.spp);
+  CHECK(f.options.max_depth == defaults.max_depth);
+  CHECK(f.options.shadows == defaults.shadows);
+  CHECK(f.options.glaze == defaults.glaze);
+  CHECK(f.options.terms == defaults.terms);
+  CHECK(f.animation.is_null());
+}
+
+TEST_CASE("every shipped scene loads, in float and double") {
+  for (const char* name :
+       {"demo.json", "torus.json", "three_lights.json", "seed/ambient_only.json",
+        "seed/diffuse_only.json", "seed/specular_only.json", "seed/no_shadows.json",
+        "seed/no_glaze.json", "seed/all_glazed.json", "seed/orthographic.json"}) {
+    CAPTURE(name);
+    CHECK(error_of([&] { twinray::io::load_scene<float>(kScenes + "/" + name); }) == "");
+    CHECK(error_of([&] { twinray::io::load_scene<double>(kScenes + "/" + name); }) == "");
+  }
+  twinray::io::SceneFile<float> torus = twinray::io::load_scene<float>(kScenes + "/torus.json");
+  auto& mesh = std::get<twinray::Mesh<float>>(torus.scene.objects[0]);
+  CHECK(mesh.vertices.size() == 40 * 20);
+  CHECK(mesh.triangles.size() == 2 * 40 * 20);  // quads fanned into two triangles
+  CHECK(torus.scene.lights.size() == 2);
+  CHECK(torus.material_names.back() == "objects[2].material");  // the inline one
+  CHECK(torus.options.spp == 4);
+  twinray::io::SceneFile<float> three =
+      twinray::io::load_scene<float>(kScenes + "/three_lights.json");
+  CHECK(three.scene.lights.size() == 3);
+}
+
+TEST_CASE("messages: FILE: JSON.PATH: problem") {
+  std::string text = kSmall;
+  text.replace(text.find("[[0, 1, 2]"), 10, "[[0, 1, 4]");
+  CHECK(error_of([&] { twinray::io::parse_scene<float>(text, "scene.json"); }) ==
+        "scene.json: objects[0].triangles[0][2]: vertex index 4 out of range: the mesh has 4 "
+        "vertices (indices 0 to 3)");
+  std::string sphere = kSmall;
+  sphere.replace(sphere.find(R"({ "type": "mesh")"), 0,
+                 R"({ "type": "sphere", "center": [0, 0, 0], "radius": -1, "material": "m" },)");
+  CHECK(error_of([&] { twinray::io::parse_scene<float>(sphere, "scene.json"); }) ==
+        "scene.json: objects[0].radius: must be > 0, got -1");
+}
+
+TEST_CASE("precision: a value that fits a double but not a float") {
+  std::string text = kSmall;
+  text.replace(text.find("[1, 0, 0]"), 9, "[1e300, 0, 0]");
+  CHECK(error_of([&] { twinray::io::parse_scene<double>(text, "s.json"); }) == "");
+  CHECK(error_of([&] { twinray::io::parse_scene<float>(text, "s.json"); }) ==
+        "s.json: objects[0].vertices[1][0]: 1e+300 overflows float (largest 3.40282347e+38)");
+}
+
+TEST_CASE("limits hold before the scene is built") {
+  twinray::io::SceneLimits limits;
+  limits.max_file_bytes = 100;
+  CHECK(error_of([&] {
+          twinray::io::parse_scene<float>(kSmall, "s.json", "", limits);
+        }).find("s.json: ") == 0);
+  CHECK(error_of([&] {
+          twinray::io::parse_scene<float>(kSmall, "s.json", "", limits);
+        }).find("more than the limit of 100") != std::string::npos);
+
+  limits = {};
+  limits.max_nesting = 3;
+  CHECK(error_of([&] { twinray::io::parse_scene<float>(kSmall, "s.json", "", limits); }) ==
+        "s.json: objects[0].vertices: nested deeper than 3 levels");
+
+  limits = {};
+  limits.max_json_values = 20;
+  CHECK(error_of([&] {
+          twinray::io::parse_scene<float>(kSmall, "s.json", "", limits);
+        }).find("more than 20 JSON values") != std::string::npos);
+
+  limits = {};
+  limits.max_mesh_vertices = 3;
+  CHECK(error_of([&] { twinray::io::parse_scene<float>(kSmall, "s.json", "", limits); }) ==
+        "s.json: objects[0].vertices: 4 vertices, more than the limit of 3");
+
+  limits = {};
+  limits.max_total_triangles = 1;
+  CHECK(error_of([&] { twinray::io::parse_scene<float>(kSmall, "s.json", "", limits); }) ==
+        "s.json: objects[0].triangles: the scene has more than 1 triangles in all (the limit)");
+
+  limits = {};
+  limits.max_objects = 0;
+  CHECK(error_of([&] { twinray::io::parse_scene<float>(kSmall, "s.json", "", limits); }) ==
+        "s.json: objects: 1 objects, more than the limit of 0");
+}
+
+TEST_CASE("OBJ: faces fanned, relative indices, and clear errors") {
+  using twinray::io::parse_obj_mesh;
+  twinray::Mesh<double> quad =
+      parse_obj_mesh<double>("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n", "q.obj");
+  CHECK(quad.vertices.size() == 4);
+  REQUIRE(quad.triangles.size() == 2);
+  // tinyobjloader splits a quad along a shortest diagonal (here both are), larger
+  // polygons as a fan from their first corner.
+  CHECK(quad.triangles[0] == std::array<int, 3>{0, 1, 3});
+  CHECK(quad.triangles[1] == std::array<int, 3>{1, 2, 3});
+  twinray::Mesh<double> pentagon = parse_obj_mesh<double>(
+      "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv -1 0.5 0\nf 1 2 3 4 5\n", "p.obj");
+  REQUIRE(pentagon.triangles.size() == 3);
+  CHECK(pentagon.triangles[0] == std::array<int, 3>{0, 1, 2});
+  CHECK(pentagon.triangles[1] == std::array<int, 3>{0, 2, 3});
+  CHECK(pentagon.triangles[2] == std::array<int, 3>{0, 3, 4});
+  // Negative indices count back from the last vertex; v/vt/vn forms are accepted.
+  twinray::Mesh<float> rel =
+      parse_obj_mesh<float>("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf -3//1 -2//1 -1//1\n", "r.obj");
+  REQUIRE(rel.triangles.size() == 1);
+  CHECK(rel.triangles[0] == std::array<int, 3>{0, 1, 2});
+  // Coordinates are parsed as doubles, then rounded once to the render's type.
+  twinray::Mesh<float> f =
+      parse_obj_mesh<float>("v 0.1 0.2 0.3\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "p.obj");
+  CHECK(f.vertices[0].x == static_cast<float>(0.1));
+
+  CHECK(error_of([] { parse_obj_mesh<float>("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n", "b.obj"); }) ==
+        "b.obj: face 1 refers to vertex 7, but only 3 are defined");
+  CHECK(error_of([] { parse_obj_mesh<float>("v 0 0 0\nv 1 0 0\nv 0 1 0\n", "n.obj"); }) ==
+        "n.obj: no faces (`f a b c` lines)");
+  CHECK(error_of([] { parse_obj_mesh<float>("# empty\n", "e.obj"); }) ==
+        "e.obj: no vertices (`v x y z` lines)");
+  CHECK(error_of([] {
+          parse_obj_mesh<float>("v 1e300 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "big.obj");
+        }) == "big.obj: vertex 1 has a coordinate that is not a finite number");
+  twinray::io::ObjLimits limits;
+  limits.max_vertices = 2;
+  CHECK(error_of([&] {
+          parse_obj_mesh<float>("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "l.obj", limits);
+        }) == "l.obj: 3 vertices, more than the limit of 2");
+  limits = {};
+  limits.max_triangles = 1;
+  CHECK(error_of([&] {
+          parse_obj_mesh<float>("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 4 3\n", "t.obj", limits);
+        }) == "t.obj: 2 triangles, more than the limit of 1");
+  CHECK(error_of([] { twinray::io::load_obj_mesh<float>("/nonexistent/x.obj"); }) ==
+        "/nonexistent/x.obj: cannot open an OBJ file: No such file or directory");
+}
