@@ -6,6 +6,7 @@
 #include <cmath>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <twinray/io/pfm.hpp>
@@ -73,6 +74,8 @@ std::string edit(const std::string& from, const std::string& to) {
 }
 
 struct BadScene {
+  BadScene(std::string t, std::string m, std::string a = "")
+      : text(std::move(t)), message(std::move(m)), also(std::move(a)) {}
   std::string text;
   std::string message;  // must appear right after "FILE: " in the error
   std::string also;     // and this anywhere in it
