@@ -145,6 +145,11 @@ inline std::vector<DeviceInfo> list_devices() {
       info.has_fp64 =
           detail::device_value<cl_device_fp_config>(d, CL_DEVICE_DOUBLE_FP_CONFIG) != 0 ||
           detail::device_string(d, CL_DEVICE_EXTENSIONS).find("cl_khr_fp64") != std::string::npos;
+      // Test hook: TWINRAY_TEST_HIDE_FP64=1 makes every device report no double support,
+      // so the "double asked of a device without fp64" path can be tested on PoCL, which
+      // has fp64 (tests/failure).
+      if (const char* hide = std::getenv("TWINRAY_TEST_HIDE_FP64"); hide && *hide == '1')
+        info.has_fp64 = false;
       info.correctly_rounded_divide_sqrt =
           (detail::device_value<cl_device_fp_config>(d, CL_DEVICE_SINGLE_FP_CONFIG) &
            CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT) != 0;
@@ -226,7 +231,8 @@ class Context {
     if (it != programs_.end()) return it->second;
     auto t0 = std::chrono::steady_clock::now();
     ProgramEntry entry;
-    const char* source = opencl_source::render_cl();
+    const std::string source_text = program_source();
+    const char* source = source_text.c_str();
     std::string dir = cache_dir();
     if (!dir.empty()) {
       std::string key = info_.platform_version + "\n" + info_.name + "\n" + info_.driver_version +
@@ -362,6 +368,17 @@ class Context {
     return sizes;
   }
 
+  // The program text: the embedded kernel, plus $TWINRAY_TEST_KERNEL_APPEND when set.
+  // Test hook: appending e.g. a syntax error makes the build fail, so tests can check
+  // that the driver's build log reaches the user (tests/failure). The text is part of
+  // the cache key, so a broken program is never cached.
+  static std::string program_source() {
+    std::string source = opencl_source::render_cl();
+    if (const char* extra = std::getenv("TWINRAY_TEST_KERNEL_APPEND"))
+      source += std::string("\n") + extra + "\n";
+    return source;
+  }
+
   cl_command_queue queue() const { return queue_; }
   long long uploads() const { return uploads_; }  // buffer uploads so far (for tests)
 
@@ -430,20 +447,41 @@ class Context {
   std::mutex mutex_;
 };
 
+// Why list_devices() found nothing: no platform at all, or platforms (named) that list
+// no devices.
+inline std::string no_device_reason() {
+  cl_uint n_platforms = 0;
+  if (clGetPlatformIDs(0, nullptr, &n_platforms) != CL_SUCCESS || n_platforms == 0)
+    return "no OpenCL platform is installed (the OpenCL ICD loader found none; on Debian: "
+           "apt-get install pocl-opencl-icd)";
+  std::vector<cl_platform_id> platforms(n_platforms);
+  std::string names;
+  if (clGetPlatformIDs(n_platforms, platforms.data(), nullptr) == CL_SUCCESS)
+    for (cl_platform_id p : platforms)
+      names += (names.empty() ? "'" : ", '") + detail::platform_string(p, CL_PLATFORM_NAME) + "'";
+  return "the OpenCL platform" + std::string(n_platforms > 1 ? "s " : " ") + names +
+         (n_platforms > 1 ? " list" : " lists") +
+         " no devices (is the driver configured to expose none, e.g. POCL_DEVICES?)";
+}
+
 // The process-wide context of a device (index over all platforms, -1 = the first),
 // created on first use. Throws BackendUnavailable when there is no such device.
+//
+// The contexts live until the process ends and are deliberately never released: at
+// exit, an OpenCL implementation may already have destroyed its own state (Oclgrind
+// frees its per-thread API-call stack before static destructors run, and releasing then
+// corrupts the heap), so the operating system reclaims them instead.
 inline Context& shared_context(int device_index) {
-  static std::mutex registry_mutex;
-  static std::map<int, std::unique_ptr<Context>> registry;
+  static std::mutex& registry_mutex = *new std::mutex;
+  static std::map<int, std::unique_ptr<Context>>& registry =
+      *new std::map<int, std::unique_ptr<Context>>;
   std::lock_guard<std::mutex> lock(registry_mutex);
   int index = device_index < 0 ? 0 : device_index;
   auto it = registry.find(index);
   if (it != registry.end()) return *it->second;
   std::vector<DeviceInfo> devices = list_devices();
   if (devices.empty())
-    throw Error(ErrorKind::BackendUnavailable,
-                "no OpenCL device found (no OpenCL platform is installed, or it has no "
-                "devices; on Debian: apt-get install pocl-opencl-icd)");
+    throw Error(ErrorKind::BackendUnavailable, "no OpenCL device found: " + no_device_reason());
   if (index >= static_cast<int>(devices.size()))
     throw Error(ErrorKind::BackendUnavailable,
                 "no OpenCL device with index " + std::to_string(index) + " (" +

@@ -53,7 +53,8 @@ Image<T> render_packed(const PackedScene<T>& ps, unsigned features, const Render
   }();
   (void)contraction_warned;
   Backend backend = options.backend;
-  if (backend == Backend::Auto) {
+  const bool automatic = backend == Backend::Auto;
+  if (automatic) {
     std::string why;
     backend = opencl_available(options.device, &why) ? Backend::OpenCL : Backend::Cpu;
     log_note(options, backend == Backend::OpenCL ? "backend auto: using OpenCL"
@@ -63,8 +64,16 @@ Image<T> render_packed(const PackedScene<T>& ps, unsigned features, const Render
     return adaptive::render_packed(ps, features, backend, options, info);
   if (backend == Backend::OpenCL) {
 #ifdef TWINRAY_WITH_OPENCL
-    return opencl::render_packed(opencl::shared_context(options.device), ps, features,
-                                 options.output, info);
+    try {
+      return opencl::render_packed(opencl::shared_context(options.device), ps, features,
+                                   options.output, info);
+    } catch (const Error& e) {
+      // Auto: an OpenCL set-up that fails (the program does not build, the device has
+      // no double support or too little memory) falls back to the CPU and says why.
+      if (!automatic || e.kind() == ErrorKind::InvalidInput) throw;
+      log_note(options,
+               std::string("backend auto: OpenCL failed, using the CPU (") + e.what() + ")");
+    }
 #else
     throw Error(ErrorKind::BackendUnavailable,
                 "twinray was built without OpenCL (link twinray::opencl)");
