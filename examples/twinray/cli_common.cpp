@@ -254,7 +254,13 @@ Progress::Progress(std::string label, long long total, bool enabled)
       total_(total),
       enabled_(enabled),
       start_(std::chrono::steady_clock::now()) {
-  if (enabled_) thread_ = std::thread([this] { loop(); });
+  if (!enabled_) return;
+  {
+    // Drawn once now, so even work shorter than a redraw shows it.
+    std::lock_guard<std::mutex> lock(mutex_);
+    draw_locked();
+  }
+  thread_ = std::thread([this] { loop(); });
 }
 
 Progress::~Progress() {
