@@ -93,7 +93,8 @@ std::string frames_key(const twinray::io::SceneFile<T>& f, const std::string& pr
   h.value(c.viewplane_height), h.value(c.width), h.value(c.height);
   const twinray::RenderOptions& o = f.options;
   h.value(o.spp), h.value(o.max_depth), h.value(o.shadows), h.value(o.glaze), h.value(o.terms);
-  h.value(o.sampler), h.value(o.output);
+  h.value(o.sampler), h.value(o.seed), h.value(o.adaptive_spp), h.value(o.adaptive_threshold);
+  h.value(o.output);
   h.value(f.scene.background);
   for (const auto& m : f.scene.materials)
     h.value(m.color), h.value(m.ka), h.value(m.kd), h.value(m.ks), h.value(m.shininess),
@@ -398,8 +399,9 @@ int make_movie(const MovieArgs& a, const std::string& ffmpeg) {
   if ((width | height) & 1)
     s << " (stored as " << twinray::io::even_up(width) << "x" << twinray::io::even_up(height)
       << ")";
-  s << " at " << std::defaultfloat << fps << std::fixed << " fps, H.264, " << frame.options.spp
-    << " spp, " << a.shared.precision;
+  char rate[32];
+  std::snprintf(rate, sizeof rate, "%g", fps);
+  s << " at " << rate << " fps, H.264, " << frame.options.spp << " spp, " << a.shared.precision;
   if (rendered > 0)
     s << ", backend " << device << ", " << rendered << " rendered at " << std::setprecision(2)
       << static_cast<double>(rendered) / render_s << " frames/s" << std::setprecision(1);

@@ -1,0 +1,326 @@
+// `twinray movie`, the real program: short movies on both backends checked with
+// ffprobe, odd sizes, a missing ffmpeg, bad ranges, and a movie that is killed and
+// resumed. POSIX only.
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <fcntl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <doctest/doctest.h>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kExe = TWINRAY_EXE;
+const std::string kScenes = TWINRAY_SCENES_DIR;
+const std::string kWork = TWINRAY_TEST_WORK_DIR;
+
+struct Run {
+  int status = -1;  // exit status; 128 + signal when killed
+  std::string out, err;
+};
+
+std::string read_file(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+}
+
+std::string fresh(const std::string& name) {
+  std::string dir = kWork + "/" + name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+// Starts argv in dir with stdout and stderr to files; `env` entries are set first.
+pid_t start(const std::vector<std::string>& argv, const std::string& dir,
+            const std::vector<std::pair<std::string, std::string>>& env = {}) {
+  pid_t pid = ::fork();
+  if (pid == 0) {
+    if (::chdir(dir.c_str()) != 0) ::_exit(125);
+    for (const auto& e : env) ::setenv(e.first.c_str(), e.second.c_str(), 1);
+    int out = ::open("stdout.txt", O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    int err = ::open("stderr.txt", O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    ::dup2(out, 1), ::dup2(err, 2);
+    ::close(out), ::close(err);
+    std::vector<char*> args;
+    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    ::execvp(args[0], args.data());
+    ::_exit(127);
+  }
+  return pid;
+}
+
+Run finish(pid_t pid, const std::string& dir) {
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  Run r;
+  r.status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  r.out = read_file(dir + "/stdout.txt");
+  r.err = read_file(dir + "/stderr.txt");
+  fs::remove(dir + "/stdout.txt");
+  fs::remove(dir + "/stderr.txt");
+  return r;
+}
+
+Run run(const std::vector<std::string>& argv, const std::string& dir,
+        const std::vector<std::pair<std::string, std::string>>& env = {}) {
+  return finish(start(argv, dir, env), dir);
+}
+
+Run twinray(std::vector<std::string> args, const std::string& dir,
+            const std::vector<std::pair<std::string, std::string>>& env = {}) {
+  args.insert(args.begin(), kExe);
+  Run r = run(args, dir, env);
+  return r;
+}
+
+bool contains(const std::string& s, const std::string& part) {
+  return s.find(part) != std::string::npos;
+}
+
+// "codec_name=h264\nwidth=..." of the first video stream, frames counted.
+std::string probe(const std::string& dir, const std::string& file) {
+  Run r = run({"ffprobe", "-v", "error", "-count_frames", "-select_streams", "v:0", "-show_entries",
+               "stream=codec_name,pix_fmt,width,height,nb_read_frames", "-of",
+               "default=noprint_wrappers=1", file},
+              dir);
+  REQUIRE(r.status == 0);
+  return r.out;
+}
+
+// One MD5 per decoded frame: equal when two movies show the same pictures.
+std::string frame_md5s(const std::string& dir, const std::string& file) {
+  Run r = run({"ffmpeg", "-v", "error", "-i", file, "-f", "framemd5", "-"}, dir);
+  REQUIRE(r.status == 0);
+  std::string lines;
+  for (size_t at = 0; at < r.out.size();) {
+    size_t nl = r.out.find('\n', at);
+    std::string line = r.out.substr(at, nl == std::string::npos ? std::string::npos : nl - at);
+    if (!line.empty() && line[0] != '#') lines += line.substr(line.rfind(',') + 1) + "\n";
+    if (nl == std::string::npos) break;
+    at = nl + 1;
+  }
+  return lines;
+}
+
+bool opencl_available() {
+  static int available = -1;
+  if (available < 0) {
+    std::string dir = fresh("opencl_probe");
+    Run r = twinray({"render", kScenes + "/movie1.json", "-o", "x.png", "--width", "8", "--height",
+                     "6", "--backend", "opencl", "--quiet"},
+                    dir);
+    available = r.status == 0;
+  }
+  return available == 1;
+}
+
+int count_frames(const std::string& folder) {
+  int n = 0;
+  if (!fs::is_directory(folder)) return 0;
+  for (const auto& e : fs::directory_iterator(folder)) {
+    std::string name = e.path().filename().string();
+    if (name.rfind("frame_", 0) == 0 && name.size() == 16 && name.substr(12) == ".png") ++n;
+  }
+  return n;
+}
+
+}  // namespace
+
+TEST_CASE("movie: H.264 yuv420p MP4 with the right frame count on both backends bit for bit") {
+  std::vector<std::string> backends = {"cpu"};
+  if (opencl_available())
+    backends.push_back("opencl");
+  else
+    MESSAGE("no OpenCL device: the CPU backend only");
+  std::string first_frames;
+  for (const std::string& backend : backends) {
+    CAPTURE(backend);
+    std::string dir = fresh("movie_" + backend);
+    Run r = twinray({"movie", kScenes + "/movie2.json", "-o", "m.mp4", "--width", "64", "--height",
+                     "48", "--frames", "7", "--backend", backend, "--keep-frames"},
+                    dir);
+    CAPTURE(r.err);
+    REQUIRE(r.status == 0);
+    CHECK(contains(r.out, "m.mp4: 7 frames, 64x48 at 30 fps, H.264"));
+    CHECK(contains(r.out, "backend " + backend));
+    std::string p = probe(dir, "m.mp4");
+    CHECK(contains(p, "codec_name=h264"));
+    CHECK(contains(p, "pix_fmt=yuv420p"));
+    CHECK(contains(p, "width=64"));
+    CHECK(contains(p, "height=48"));
+    CHECK(contains(p, "nb_read_frames=7"));
+    // The kept frames: the same PNG bytes from either backend.
+    CHECK(count_frames(dir + "/m.frames") == 7);
+    std::string frames;
+    for (int k = 0; k < 7; ++k) {
+      char name[32];
+      std::snprintf(name, sizeof name, "/m.frames/frame_%06d.png", k);
+      frames += read_file(dir + name);
+    }
+    if (first_frames.empty())
+      first_frames = frames;
+    else
+      CHECK(frames == first_frames);
+    // Frames differ from each other: something moves.
+    CHECK(read_file(dir + "/m.frames/frame_000000.png") !=
+          read_file(dir + "/m.frames/frame_000006.png"));
+    // `render --frame K` renders the same picture as the movie's frame K.
+    r = twinray({"render", kScenes + "/movie2.json", "-o", "f5.png", "--width", "64", "--height",
+                 "48", "--frame", "5", "--backend", backend},
+                dir);
+    REQUIRE(r.status == 0);
+    CHECK(read_file(dir + "/f5.png") == read_file(dir + "/m.frames/frame_000005.png"));
+  }
+}
+
+TEST_CASE("movie: odd sizes are stored even; --fps and --from/--to; no frames folder after") {
+  std::string dir = fresh("movie_odd");
+  Run r = twinray({"movie", kScenes + "/movie1.json", "-o", "odd.mp4", "--width", "45", "--height",
+                   "33", "--from", "10", "--to", "14", "--fps", "12", "--backend", "cpu"},
+                  dir);
+  CAPTURE(r.err);
+  REQUIRE(r.status == 0);
+  CHECK(contains(r.out, "5 frames (10 to 14), 45x33 (stored as 46x34) at 12 fps"));
+  std::string p = probe(dir, "odd.mp4");
+  CHECK(contains(p, "width=46"));
+  CHECK(contains(p, "height=34"));
+  CHECK(contains(p, "nb_read_frames=5"));
+  Run rate = run({"ffprobe", "-v", "error", "-select_streams", "v:0", "-show_entries",
+                  "stream=r_frame_rate", "-of", "default=noprint_wrappers=1", "odd.mp4"},
+                 dir);
+  CHECK(contains(rate.out, "r_frame_rate=12/1"));
+  CHECK_FALSE(fs::exists(dir + "/odd.frames"));
+}
+
+TEST_CASE("movie: a missing ffmpeg and bad input fail before any rendering and leave nothing") {
+  std::string dir = fresh("movie_errors");
+  std::string empty_path = fresh("movie_errors_path");
+  struct Case {
+    std::vector<std::string> args;
+    std::vector<std::pair<std::string, std::string>> env;
+    int status;
+    std::string message;
+  } cases[] = {
+      {{"movie", kScenes + "/movie1.json", "-o", "m.mp4"},
+       {{"PATH", empty_path}},
+       3,
+       "MP4 output needs the ffmpeg program, and there is no ffmpeg on PATH"},
+      {{"movie", kScenes + "/movie1.json", "-o", "m.mp4"},
+       {{"TWINRAY_FFMPEG", "/nonexistent/ffmpeg"}},
+       3,
+       "TWINRAY_FFMPEG=/nonexistent/ffmpeg is not an executable file"},
+      {{"movie", kScenes + "/movie1.json", "-o", "m.avi"},
+       {},
+       2,
+       "-o m.avi: a movie is written as MP4; the output must end in .mp4"},
+      {{"movie", kScenes + "/movie1.json", "-o", "m.mp4", "--to", "120"},
+       {},
+       2,
+       "--to 120: the movie has 120 frames (0 to 119); --frames N makes it longer"},
+      {{"movie", kScenes + "/movie1.json", "-o", "m.mp4", "--from", "9", "--to", "3"},
+       {},
+       2,
+       "--from 9 --to 3: the first frame is after the last"},
+      {{"movie", kScenes + "/demo.json", "-o", "m.mp4"},
+       {},
+       2,
+       "demo.json has no animation (no \"animation\" key), so there is no movie to make"},
+      {{"movie", kScenes + "/movie1.json", "-o", "nofolder/m.mp4"},
+       {},
+       2,
+       "the folder nofolder does not exist"},
+  };
+  for (const Case& c : cases) {
+    CAPTURE(c.message);
+    Run r = twinray(c.args, dir, c.env);
+    CAPTURE(r.err);
+    CHECK(r.status == c.status);
+    CHECK(contains(r.err, c.message));
+    std::vector<std::string> left;
+    for (const auto& e : fs::directory_iterator(dir)) left.push_back(e.path().filename());
+    CHECK(left.empty());
+  }
+}
+
+TEST_CASE("movie: killed halfway; the rerun keeps the rendered frames and makes the same movie") {
+  std::string dir = fresh("movie_resume");
+  std::vector<std::string> args = {kExe,        "movie",     kScenes + "/movie2.json",
+                                   "-o",        "r.mp4",     "--width",
+                                   "160",       "--height",  "120",
+                                   "--spp",     "4",         "--frames",
+                                   "24",        "--backend", "cpu",
+                                   "--threads", "1"};
+  // An uninterrupted movie to compare with.
+  std::string ref = fresh("movie_resume_reference");
+  Run whole = run(args, ref);
+  REQUIRE(whole.status == 0);
+
+  pid_t pid = start(args, dir);
+  auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (count_frames(dir + "/r.frames") < 3 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  ::kill(pid, SIGKILL);
+  Run killed = finish(pid, dir);
+  CHECK(killed.status == 128 + SIGKILL);
+  int kept = count_frames(dir + "/r.frames");
+  CAPTURE(kept);
+  REQUIRE(kept >= 3);
+  REQUIRE(kept < 24);  // (if the movie was already done, this test proves nothing)
+  CHECK_FALSE(fs::exists(dir + "/r.mp4"));  // no partial movie
+
+  Run again = run(args, dir);
+  CAPTURE(again.err);
+  REQUIRE(again.status == 0);
+  CHECK(contains(again.out, std::to_string(24 - kept) + " rendered at"));
+  CHECK(contains(again.out, std::to_string(kept) + " kept from r.frames/"));
+  CHECK(contains(probe(dir, "r.mp4"), "nb_read_frames=24"));
+  CHECK(frame_md5s(dir, "r.mp4") == frame_md5s(ref, "r.mp4"));
+  CHECK_FALSE(fs::exists(dir + "/r.frames"));
+}
+
+TEST_CASE(
+    "movie: Ctrl-C stops after the current frame and keeps the frames and says how to go on") {
+  std::string dir = fresh("movie_interrupt");
+  std::vector<std::string> args = {kExe,        "movie",     kScenes + "/movie1.json",
+                                   "-o",        "i.mp4",     "--width",
+                                   "160",       "--height",  "120",
+                                   "--spp",     "4",         "--frames",
+                                   "40",        "--backend", "cpu",
+                                   "--threads", "1"};
+  pid_t pid = start(args, dir);
+  auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (count_frames(dir + "/i.frames") < 2 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  ::kill(pid, SIGINT);
+  Run r = finish(pid, dir);
+  CAPTURE(r.err);
+  REQUIRE(r.status == 130);
+  CHECK(contains(r.err, "interrupted; "));
+  CHECK(contains(r.err, "frames are kept in i.frames/; run the same command again"));
+  CHECK_FALSE(fs::exists(dir + "/i.mp4"));
+  int kept = count_frames(dir + "/i.frames");
+  CHECK(kept >= 2);
+  CHECK_FALSE(fs::exists(dir + "/i.frames/encoding.mp4"));
+
+  // Other settings: the kept frames are not used.
+  args[10] = "1";  // --spp 1
+  Run other = run(args, dir);
+  CAPTURE(other.err);
+  REQUIRE(other.status == 0);
+  CHECK(contains(other.err, "frames of another scene or other settings; rendering anew"));
+  CHECK(contains(other.out, "40 rendered at"));
+  CHECK_FALSE(contains(other.out, "kept"));
+}
