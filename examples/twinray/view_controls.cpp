@@ -143,7 +143,9 @@ int ViewController::preview_divisor(double full_ms, double target_ms) {
 bool ViewController::next_job(double now_s, Job& job) {
   ViewState& s = state_;
   // Playback: one animation frame per 1/fps seconds, or slower when rendering is.
-  if (s.playing && s.frames > 0 && shown_generation_ == generation_) {
+  // (A PNG asked for while playing: the frame shown is finished at full size first.)
+  bool hold_frame = screenshot_pending_ && !screenshot_due();
+  if (s.playing && s.frames > 0 && shown_generation_ == generation_ && !hold_frame) {
     if (last_advance_s_ < 0 || now_s - last_advance_s_ >= 1.0 / s.fps) {
       last_advance_s_ = now_s;
       s.frame = (s.frame + 1) % s.frames;
@@ -156,7 +158,7 @@ bool ViewController::next_job(double now_s, Job& job) {
     // render is known to be fast enough. While playing, stay at the preview size.
     divisor = full_ms_ > 0 ? preview_divisor(full_ms_, target_ms_) : 4;
   } else if (started_divisor_ > 1 && shown_generation_ == generation_ && shown_divisor_ > 1 &&
-             !s.playing) {
+             (!s.playing || screenshot_pending_)) {
     divisor = 1;  // refine the state shown at reduced size
   } else {
     return false;

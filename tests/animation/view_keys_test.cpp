@@ -255,3 +255,39 @@ TEST_CASE("space plays the animation: frames advance at the animation's rate") {
   CHECK_FALSE(still.state().playing);
   CHECK(still.title("x").find("no animation") != std::string::npos);
 }
+
+TEST_CASE("screenshot while playing: the frame shown is finished at full size first") {
+  ViewState s;
+  s.frames = 10;
+  s.fps = 10;
+  ViewController c(s, 40);
+  Job job;
+  Result r;
+  REQUIRE(c.next_job(0, job));
+  r.generation = job.generation;
+  r.divisor = job.divisor;  // 4
+  r.ms = 20;
+  c.finish(r);
+  REQUIRE(c.next_job(0, job));
+  r.divisor = job.divisor;  // 1
+  r.ms = 320;
+  c.finish(r);
+  type(c, " ");
+  REQUIRE(c.next_job(1.0, job));
+  CHECK(job.state.frame == 1);
+  CHECK(job.divisor == 4);  // playing stays at the reduced size
+  r.generation = job.generation;
+  r.divisor = 4;
+  c.finish(r);
+  type(c, "p");
+  REQUIRE(c.next_job(1.5, job));
+  CHECK(job.state.frame == 1);  // not the next frame yet
+  CHECK(job.divisor == 1);
+  r.divisor = 1;
+  c.finish(r);
+  CHECK(c.screenshot_due());
+  c.screenshot_done();
+  REQUIRE(c.next_job(1.6, job));
+  CHECK(job.state.frame == 2);
+  CHECK(job.divisor == 4);
+}
