@@ -2,6 +2,7 @@
 // scene several times and prints the median render time and rays per second.
 //
 //   robustness_demo_bench [--width W] [--height H] [--runs N] [--double] [--threads T]
+//                         [--no-count]
 //
 // Rays are counted exactly, once, by a host pass that follows tr_trace/tr_shade's
 // decisions with the same device functions: every camera ray, every shadow ray actually
@@ -54,13 +55,13 @@ long long count_rays(const twinray::PackedScene<T>& ps) {
 }
 
 template <class T>
-int run(int width, int height, int runs, int threads) {
+int run(int width, int height, int runs, int threads, bool count) {
   demo::DemoSetup<T> d = demo::make_demo_scene<T>(width, height);
   twinray::RenderOptions options;
   options.backend = twinray::Backend::Cpu;
   options.threads = threads;
   twinray::PackedScene<T> ps = twinray::pack(d.scene, d.camera, options);
-  long long rays = count_rays(ps);
+  long long rays = count ? count_rays(ps) : 0;
   std::vector<double> ms;
   twinray::render(d.scene, d.camera, options);  // warm-up
   for (int r = 0; r < runs; ++r) {
@@ -84,7 +85,7 @@ int run(int width, int height, int runs, int threads) {
 
 int main(int argc, char** argv) {
   int width = 1920, height = 1080, runs = 7, threads = 0;
-  bool use_double = false;
+  bool use_double = false, count = true;
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
     if (a == "--width" && i + 1 < argc)
@@ -98,6 +99,6 @@ int main(int argc, char** argv) {
     else if (a == "--double")
       use_double = true;
   }
-  return use_double ? run<double>(width, height, runs, threads)
-                    : run<float>(width, height, runs, threads);
+  return use_double ? run<double>(width, height, runs, threads, count)
+                    : run<float>(width, height, runs, threads, count);
 }

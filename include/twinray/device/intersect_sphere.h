@@ -40,26 +40,37 @@ TR_FN real tr_sphere_c_accurate(vec3 o, vec3 center, real r) {
   return s + sum_err;
 }
 
+/* c = f.f - r^2, rounded, off by up to gamma(4) (f.f + r^2); where it is below half of
+ * that sum the rounded value would carry more than 8 ulp of error, and it is recomputed
+ * (a relative test: the same at any scale). */
+TR_FN real tr_sphere_c(vec3 f, vec3 o, vec3 center, real r) {
+  real ff = tr_dot(f, f);
+  real r2 = r * r;
+  real c = ff - r2;
+  if (fabs(c) < TR_R(0.5) * (ff + r2)) c = tr_sphere_c_accurate(o, center, r);
+  return c;
+}
+
 TR_FN int tr_intersect_sphere(TR_GLOBAL const TrSphere* sp, TrRay ray, real tmax, TrHit* hit) {
   vec3 center = TR_VEC3(sp->cx, sp->cy, sp->cz);
   real r = sp->radius;
   vec3 f = ray.o - center;
   real a = tr_dot(ray.d, ray.d);
   real b = -tr_dot(f, ray.d); /* b' in the chapter */
-  real ff = tr_dot(f, f);
   real r2 = r * r;
-  real c = ff - r2;
-  /* Rounded, c is off by up to gamma(4) (f.f + r^2); below half of that sum it would
-   * carry more than 8 ulp of error, so recompute it (relative test: any scale). */
-  if (fabs(c) < TR_R(0.5) * (ff + r2)) c = tr_sphere_c_accurate(ray.o, center, r);
-  real root_arg; /* a D */
-  if (TR_R(2.0) * (b * b) + a * fabs(c) < a * r2) {
-    root_arg = b * b - a * c;
-  } else {
-    vec3 perp = f + ray.d * (b / a);
-    root_arg = a * (r2 - tr_dot(perp, perp));
+  vec3 perp = f + ray.d * (b / a);
+  real root_arg = a * (r2 - tr_dot(perp, perp)); /* a D, Hearn and Baker's form */
+  real c = TR_R(0.0);
+  int have_c = 0;
+  /* 2 b^2 + a|c| < a r^2 needs 2 b^2 < a r^2 first: the common miss (a sphere off to
+   * the side, |b| ~ |f| > r) pays one compare for it. */
+  if (TR_R(2.0) * (b * b) < a * r2) {
+    c = tr_sphere_c(f, ray.o, center, r);
+    have_c = 1;
+    if (TR_R(2.0) * (b * b) + a * fabs(c) < a * r2) root_arg = b * b - a * c;
   }
   if (root_arg < TR_R(0.0)) return 0;
+  if (!have_c) c = tr_sphere_c(f, ray.o, center, r);
   real q = b + (b >= TR_R(0.0) ? sqrt(root_arg) : -sqrt(root_arg));
   if (q == TR_R(0.0)) return 0; /* origin on the sphere and tangent: no finite root */
   real t0 = c / q;
