@@ -91,7 +91,7 @@ TEST_CASE("orbit: the seed's camera circle with angle += 0.015 per frame") {
   check_near(p.point(0), {3, 2, -1});
 }
 
-TEST_CASE("keyframes: linear in between; hold or loop or bounce outside") {
+TEST_CASE("keyframes: linear in between - hold or loop or bounce outside") {
   twinray::Keyframes<double> k;
   k.keys = {{10, {0, 0, 0}}, {20, {10, 0, 0}}, {30, {10, 20, 0}}};
   check_near(k.point(10), {0, 0, 0});
@@ -112,7 +112,7 @@ TEST_CASE("keyframes: linear in between; hold or loop or bounce outside") {
   check_near(k.point(5), {5, 0, 0});
 }
 
-TEST_CASE("paths move their targets' anchor onto the path; frames do not depend on each other") {
+TEST_CASE("paths move their targets' anchor onto the path - frames do not depend on each other") {
   twinray::Scene<double> scene = two_spheres_and_a_light();
   twinray::Camera<double> camera;
   Animation<double> anim;
@@ -178,7 +178,7 @@ TEST_CASE("scene file: the camera orbit starts at the file's camera and keeps it
   }
 }
 
-TEST_CASE("scene file: circle and keyframe paths at given frames; --frame's apply_frame") {
+TEST_CASE("scene file: circle and keyframe paths at given frames - --frame's apply_frame") {
   twinray::io::SceneFile<double> f = twinray::io::parse_scene<double>(scene_with(R"({ "frames": 40,
         "paths": [
           { "target": "objects[1]", "type": "circle", "center": [0, 0.2, 0], "radius": 2,

@@ -186,7 +186,7 @@ TEST_CASE("movie: H.264 yuv420p MP4 with the right frame count on both backends 
   }
 }
 
-TEST_CASE("movie: odd sizes are stored even; --fps and --from/--to; no frames folder after") {
+TEST_CASE("movie: odd sizes are stored even - --fps and --from/--to - no frames folder after") {
   std::string dir = fresh("movie_odd");
   Run r = twinray({"movie", kScenes + "/movie1.json", "-o", "odd.mp4", "--width", "45", "--height",
                    "33", "--from", "10", "--to", "14", "--fps", "12", "--backend", "cpu"},
@@ -255,7 +255,7 @@ TEST_CASE("movie: a missing ffmpeg and bad input fail before any rendering and l
   }
 }
 
-TEST_CASE("movie: killed halfway; the rerun keeps the rendered frames and makes the same movie") {
+TEST_CASE("movie: killed halfway - the rerun keeps the rendered frames and makes the same movie") {
   std::string dir = fresh("movie_resume");
   std::vector<std::string> args = {kExe,        "movie",     kScenes + "/movie2.json",
                                    "-o",        "r.mp4",     "--width",

@@ -71,7 +71,7 @@ TEST_CASE("keys: o toggles orthographic/perspective in the camera that is render
   CHECK(c.title("movie1.json").find("perspective") != std::string::npos);
 }
 
-TEST_CASE("keys: 1 2 3 terms; s shadows; g glaze; + - samples per pixel") {
+TEST_CASE("keys: 1 2 3 terms - s shadows - g glaze - + - samples per pixel") {
   twinray::io::SceneFile<float> base = movie1();
   ViewController c(ViewState{});
   type(c, "1");
