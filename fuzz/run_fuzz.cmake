@@ -2,7 +2,7 @@
 # that CTest can run the two targets side by side:
 #   -DMODE=build: configures this folder with clang and builds both targets
 #   -DMODE=run -DTARGET=scene_json|obj_mesh: runs that target for SECONDS on a scratch
-#     copy of the committed seed corpus
+#     copy of the committed seed corpus and the inputs it once crashed on
 # Any crash, sanitizer report, leak, timeout or out-of-memory fails the test and names
 # the input that caused it (kept under WORK_DIR/artifacts/); commit it under
 # tests/fuzz/regressions/<target>/.
@@ -46,6 +46,7 @@ file(MAKE_DIRECTORY ${corpus} ${artifacts})
 execute_process(COMMAND ${build}/fuzz_${name} -max_total_time=${SECONDS} -timeout=10
                         -rss_limit_mb=2048 -max_len=16384 -print_final_stats=1
                         -artifact_prefix=${artifacts} ${extra} ${corpus} ${seeds}
+                        ${SOURCE_DIR}/tests/fuzz/regressions/${name}
                 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 string(REGEX MATCH "stat::number_of_executed_units: *[0-9]+" runs "${err}")
 string(REGEX MATCHALL "cov: [0-9]+ ft: [0-9]+" coverages "${err}")

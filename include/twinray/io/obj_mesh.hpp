@@ -102,6 +102,27 @@ inline ObjCounts count_obj(const std::string& text) {
   return c;
 }
 
+// tinyobjloader turns the joint ids of `vw` lines (skin weights, which twinray does not
+// read) into int without a range check: undefined behaviour for `vw 1 2.5e10 1`, found
+// by fuzz/fuzz_obj_mesh (tests/fuzz/regressions/obj_mesh/). Such lines become comments.
+inline std::string without_vertex_weights(const std::string& text) {
+  std::string out = text;
+  bool line_start = true;
+  for (size_t i = 0; i < out.size(); ++i) {
+    char c = out[i];
+    if (c == '\n' || c == '\r') {
+      line_start = true;
+      continue;
+    }
+    if (line_start && (c == ' ' || c == '\t')) continue;
+    if (line_start && c == 'v' && i + 2 < out.size() && out[i + 1] == 'w' &&
+        (out[i + 2] == ' ' || out[i + 2] == '\t'))
+      out[i] = '#';
+    line_start = false;
+  }
+  return out;
+}
+
 }  // namespace detail
 
 // Parses OBJ text; `name` labels errors. Throws twinray::Error(InvalidInput).
@@ -122,7 +143,7 @@ Mesh<T> parse_obj_mesh(const std::string& text, const std::string& name,
   config.vertex_color = false;
   tinyobj::ObjReader reader;
   // ParseFromString ignores `mtllib`: no other file is opened.
-  if (!reader.ParseFromString(text, "", config)) {
+  if (!reader.ParseFromString(detail::without_vertex_weights(text), "", config)) {
     std::string error = reader.Error();
     while (!error.empty() && (error.back() == '\n' || error.back() == ' ')) error.pop_back();
     throw invalid_input(name + ": malformed OBJ: " + (error.empty() ? "parse failed" : error));
