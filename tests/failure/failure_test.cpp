@@ -119,7 +119,7 @@ TEST_CASE("no OpenCL platform: --backend auto renders on the CPU and says why") 
   CHECK(fs::exists(dir + "/out.png"));
 }
 
-TEST_CASE("a platform without devices: exit 3 naming the platform; auto falls back") {
+TEST_CASE("a platform without devices: exit 3 naming the platform, auto falls back") {
   std::string dir = work_dir("no_devices");
   ChildOptions o;
   o.env = {"POCL_DEVICES=none-such-device"};
@@ -187,7 +187,7 @@ TEST_CASE("an image too large for the device: exit 1 naming the sizes, no file")
   CHECK_FALSE(fs::exists(dir + "/out.pfm"));
 }
 
-TEST_CASE("double on a device without fp64: exit 3; auto falls back to the CPU") {
+TEST_CASE("double on a device without fp64: exit 3, auto falls back to the CPU") {
   std::string dir = work_dir("no_fp64");
   ChildOptions o;
   o.env = {"TWINRAY_TEST_HIDE_FP64=1"};
