@@ -97,6 +97,19 @@ void add_shared_options(CLI::App& app, SharedOptions& o, unsigned extras) {
                    "object (object index, -1 for no hit)")
         ->check(CLI::IsMember({"depth", "normal", "object"}));
   app.add_flag("--quiet", o.quiet, "no progress bar");
+  app.add_option("--sampler", o.sampler,
+                 "sub-pixel sample positions: grid, stratified (jittered) or r2 "
+                 "(low-discrepancy)")
+      ->check(CLI::IsMember({"grid", "stratified", "r2"}));
+  app.add_option("--seed", o.seed, "sampler seed (stratified jitter, r2 per-pixel shift)")
+      ->check(CLI::Range(0, 2147483647));
+  app.add_option("--adaptive", o.adaptive_spp,
+                 "adaptive anti-aliasing: N samples in the pixels whose contrast is above "
+                 "--adaptive-threshold after a first pass of --spp samples")
+      ->check(CLI::Range(2, Limits::max_spp));
+  app.add_option("--adaptive-threshold", o.adaptive_threshold,
+                 "contrast (linear units) above which a pixel is refined; default 1/32")
+      ->check(CLI::Range(0.0, 1e30));
 }
 
 twinray::Backend parse_backend(const std::string& name) {
@@ -155,6 +168,14 @@ void apply_shared_options(twinray::io::SceneFile<T>& f, const SharedOptions& o) 
   if (!o.camera.empty())
     f.camera.projection = o.camera == "orthographic" ? twinray::Projection::Orthographic
                                                      : twinray::Projection::Perspective;
+  if (!o.sampler.empty()) twinray::parse_sampler(o.sampler, &r.sampler);
+  if (o.seed >= 0) r.seed = o.seed;
+  if (o.adaptive_spp > 0) r.adaptive_spp = o.adaptive_spp;
+  if (o.adaptive_threshold >= 0) r.adaptive_threshold = o.adaptive_threshold;
+  if (r.adaptive_spp > 0 && r.adaptive_spp <= r.spp)
+    usage_error("--adaptive " + std::to_string(r.adaptive_spp) +
+                ": must be more than the samples of the first pass (--spp or render.spp, " +
+                std::to_string(r.spp) + ")");
   if (o.no_shadows) r.shadows = false;
   if (o.no_glaze) r.glaze = false;
   if (!o.terms.empty()) r.terms = parse_terms(o.terms);

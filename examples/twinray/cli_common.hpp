@@ -56,6 +56,10 @@ struct SharedOptions {
   int threads = 0;    // 0: all cores
   std::string aov;    // "", depth, normal, object
   bool quiet = false;
+  std::string sampler;             // "": the scene's; else grid, stratified, r2
+  int seed = -1;                   // -1: the scene's
+  int adaptive_spp = 0;            // --adaptive N; 0: the scene's
+  double adaptive_threshold = -1;  // -1: the scene's
 };
 
 // Which of the options that only some subcommands take to add.

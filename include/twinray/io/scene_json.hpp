@@ -451,7 +451,8 @@ class SceneReader {
 
   void read_render(const Json& render, RenderOptions& o) {
     require_object(render, "render");
-    check_keys(render, "render", {"spp", "max_depth", "shadows", "glaze", "terms"});
+    check_keys(render, "render",
+               {"spp", "max_depth", "shadows", "glaze", "terms", "sampler", "seed", "adaptive"});
     if (const Json* v = optional(render, "spp"))
       o.spp = static_cast<int>(integer(*v, "render.spp", 1, Limits::max_spp));
     if (const Json* v = optional(render, "max_depth"))
@@ -469,6 +470,28 @@ class SceneReader {
         terms |= bit;
       }
       o.terms = terms;
+    }
+    read_sampling(render, o);
+  }
+
+  // Sub-pixel sampling (device/sampling.h, device/adaptive.h): "sampler" (grid,
+  // stratified, r2), "seed", and "adaptive": {"spp": samples of a refined pixel, more
+  // than render.spp; "threshold": contrast above which a pixel is refined, default 1/32}.
+  void read_sampling(const Json& render, RenderOptions& o) {
+    if (const Json* v = optional(render, "sampler"))
+      parse_sampler(choice(*v, "render.sampler", {"grid", "stratified", "r2"}), &o.sampler);
+    if (const Json* v = optional(render, "seed"))
+      o.seed = static_cast<int>(integer(*v, "render.seed", 0, 2147483647));
+    if (const Json* a = optional(render, "adaptive")) {
+      require_object(*a, "render.adaptive");
+      check_keys(*a, "render.adaptive", {"spp", "threshold"});
+      const Json* n = optional(*a, "spp");
+      if (!n) fail("render.adaptive.spp", "is required (samples of a refined pixel)");
+      o.adaptive_spp = static_cast<int>(integer(*n, "render.adaptive.spp", 2, Limits::max_spp));
+      if (o.adaptive_spp <= o.spp)
+        fail("render.adaptive.spp", "must be more than render.spp (" + std::to_string(o.spp) + ")");
+      if (const Json* t = optional(*a, "threshold"))
+        o.adaptive_threshold = scalar(*t, "render.adaptive.threshold", 0.0);
     }
   }
 

@@ -1,0 +1,107 @@
+// `twinray report --quick -o DIR` (CLI.md): runs, and writes the CSV, the Markdown
+// table and the two plots, with every configuration on both backends bit-identical.
+#include <doctest/doctest.h>
+
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace {
+
+std::string read_file(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+}
+
+int run(const std::string& command) {
+  int status = std::system(command.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> cells;
+  std::string cell;
+  bool quoted = false;
+  for (char c : line) {
+    if (c == '"') {
+      quoted = !quoted;
+    } else if (c == ',' && !quoted) {
+      cells.push_back(cell);
+      cell.clear();
+    } else {
+      cell += c;
+    }
+  }
+  cells.push_back(cell);
+  return cells;
+}
+
+}  // namespace
+
+TEST_CASE("report: --quick writes the CSV, the Markdown table and the plots") {
+  const std::string dir = std::string(TWINRAY_REPORT_WORK_DIR) + "/quick";
+  std::filesystem::remove_all(dir);
+  const std::string log = std::string(TWINRAY_REPORT_WORK_DIR) + "/quick.log";
+  std::filesystem::create_directories(TWINRAY_REPORT_WORK_DIR);
+  int status =
+      run(std::string(TWINRAY_EXE) + " report --quick --quiet -o " + dir + " > " + log + " 2>&1");
+  INFO(read_file(log));
+  REQUIRE(status == 0);
+
+  std::istringstream csv(read_file(dir + "/report.csv"));
+  std::string header;
+  std::getline(csv, header);
+  std::vector<std::string> columns = split(header);
+  auto column = [&](const std::string& name) {
+    for (size_t i = 0; i < columns.size(); ++i)
+      if (columns[i] == name) return static_cast<int>(i);
+    FAIL("no column " << name);
+    return -1;
+  };
+  const int backend = column("backend"), mode = column("mode"), rmse = column("rmse"),
+            differ = column("values_differing_from_cpu"), ms = column("render_ms_median"),
+            fvd = column("float_vs_double_rmse");
+  column("transfer_ms_median");
+  column("build_ms");
+  column("psnr_db");
+  column("max_abs");
+  int rows = 0, adaptive = 0, opencl = 0, with_fvd = 0;
+  for (std::string line; std::getline(csv, line);) {
+    std::vector<std::string> cells = split(line);
+    REQUIRE(cells.size() == columns.size());
+    ++rows;
+    adaptive += cells[mode] == "adaptive";
+    CHECK(std::stod(cells[rmse]) > 0);
+    CHECK(std::stod(cells[ms]) > 0);
+    with_fvd += !cells[fvd].empty();
+    if (cells[backend] == "opencl") {
+      ++opencl;
+      CHECK(cells[differ] == "0");  // the backends agree, bit for bit
+    }
+  }
+  // 2 scenes x 2 precisions x 3 samplers x (3 uniform + 1 adaptive) x 2 backends.
+  CHECK(rows == 96);
+  CHECK(adaptive == 24);
+  CHECK(opencl == 48);
+  CHECK(with_fvd == rows);
+
+  std::string md = read_file(dir + "/report.md");
+  CHECK(md.find("## Adaptive sampling against") != std::string::npos);
+  CHECK(md.find("## Float against double") != std::string::npos);
+  CHECK(md.find("error_vs_time.png") != std::string::npos);
+  for (const char* png : {"/error_vs_time.png", "/error_vs_spp.png"}) {
+    std::string bytes = read_file(dir + png);
+    REQUIRE(bytes.size() > 1000);
+    CHECK(bytes.compare(0, 8, "\x89PNG\r\n\x1a\n") == 0);
+  }
+}
+
+TEST_CASE("report: a missing -o is a usage error") {
+  CHECK(run(std::string(TWINRAY_EXE) + " report --quick > /dev/null 2>&1") == 2);
+}
