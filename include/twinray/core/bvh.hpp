@@ -10,7 +10,7 @@
 //
 // Guarantees the traversal relies on:
 //  - depth: no leaf is deeper than kMaxDepth, so the traversal's stack of
-//    TR_BVH_STACK_SIZE entries never overflows (it holds at most depth + 1 entries);
+//    TR_BVH_STACK_SIZE entries never overflows (it holds one entry per level at most);
 //    near the cap the builder switches to median splits, which halve the count, and it
 //    starts doing so early enough to end every branch in small leaves;
 //  - bounds: every box contains what it bounds with a margin, rounded outward to the
