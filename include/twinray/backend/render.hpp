@@ -95,6 +95,15 @@ Image<T> render_packed(const PackedScene<T>& ps, unsigned features, const Render
   return image;
 }
 
+// Renders `scene` through `camera` (T = float or double, end to end) with `options`;
+// fills `info` (which backend and device ran, timings) when given. Returns the linear
+// HDR framebuffer, camera.width x camera.height, row 0 at the top.
+// Throws Error: InvalidInput (bad scene, camera or options; nothing rendered),
+// BackendUnavailable (Backend::OpenCL without a device, or double without fp64),
+// RuntimeFailure (the OpenCL program does not build, the device runs out of memory).
+// Backend::Auto instead falls back to the CPU, and logs why, when there is no device
+// or the OpenCL set-up fails.
+// Any thread may call it, also several at once; the scene is only read.
 template <class T>
 Image<T> render(const Scene<T>& scene, const Camera<T>& camera, const RenderOptions& options,
                 RenderInfo* info = nullptr) {
