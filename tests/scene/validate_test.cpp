@@ -83,6 +83,10 @@ TEST_CASE("scene refusals name the object and the problem") {
   s.add_light({{0, 0, 0}, -2.f, {1, 1, 1}});
   CHECK(refusal([&] { validate(s); }) == "lights[0].intensity: must be >= 0, got -2");
   s = one_sphere();
+  s.add_light({{0, 0, 0}, 1e38f, {4, 1, 1}});  // each finite, the product is not
+  CHECK(refusal([&] { validate(s); }) ==
+        "lights[0].intensity: intensity x color[0] overflows float: 9.99999968e+37 x 4");
+  s = one_sphere();
   s.add(Triangle<float>{{glm::vec3(0), glm::vec3(INFINITY, 0, 0), glm::vec3(0, 1, 0)}, 0});
   CHECK(refusal([&] { validate(s); }).find("objects[1].vertices[1]: must be finite") == 0);
   s = one_sphere();

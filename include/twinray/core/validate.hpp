@@ -175,6 +175,13 @@ void validate(const Scene<T>& scene) {
     for (int c = 0; c < 3; ++c)
       detail::require_range(base + ".color[" + std::to_string(c) + "]", l.color[c], T(0),
                             T(INFINITY));
+    // The renderer uses intensity x color; each factor finite does not make the product.
+    for (int c = 0; c < 3; ++c)
+      if (!std::isfinite(l.intensity * l.color[c]))
+        refuse(base + ".intensity", "intensity x color[" + std::to_string(c) + "] overflows " +
+                                        (std::is_same<T, float>::value ? "float" : "double") +
+                                        ": " + detail::format_number(l.intensity) + " x " +
+                                        detail::format_number(l.color[c]));
   }
 }
 
