@@ -5,7 +5,7 @@
 //   render_ms_median,render_ms_max,rays,mrays_per_s,peak_mib
 // build_ms: pack() with its BVH build; the OpenCL program build goes to stderr.
 // rays: primary + shadow + reflected rays of one frame, counted exactly by a host pass
-// through the device code's ray counter (device/scene_hit.h TR_F_COUNT_RAYS).
+// through the device code's ray counter (TR_F_COUNT_RAYS, device/features.h).
 // peak_mib: the process's peak resident memory from packing to the last run (VmHWM,
 // reset before packing where the kernel allows it).
 #pragma once
@@ -97,10 +97,10 @@ long long count_rays(const twinray::PackedScene<T>& ps, int threads) {
   std::atomic<int> next_row{0};
   std::atomic<long long> total{0};
   auto worker = [&] {
-    long long before = *Kernel::tr_ray_counter();
+    long long before = twinray::device::ray_counter();
     for (int y; (y = next_row.fetch_add(1)) < height;)
       for (int x = 0; x < width; ++x) (void)Kernel::tr_render_pixel(&scene, x, y);
-    total += *Kernel::tr_ray_counter() - before;
+    total += twinray::device::ray_counter() - before;
   };
   std::vector<std::thread> pool;
   for (int i = 1; i < threads; ++i) pool.emplace_back(worker);

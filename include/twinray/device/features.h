@@ -17,5 +17,8 @@
 #define TR_F_DIFFUSE 0x080u   /* diffuse term on */
 #define TR_F_SPECULAR 0x100u  /* specular term on */
 #define TR_F_ALL 0x1ffu       /* the generic program: every feature compiled in */
+/* Host-only: benchmarks instantiate the CPU code with this bit to count every ray
+ * query (TR_COUNT_RAY in prelude.h). Never set by a render, never on the device. */
+#define TR_F_COUNT_RAYS 0x80000000u
 
 #endif /* TWINRAY_DEVICE_FEATURES_H */

@@ -9,6 +9,7 @@
  *   TR_FN               qualifier of every device function
  *   TR_GLOBAL           address space of pointers into scene buffers
  *   TR_HAS(bit)         compile-time test of the Features mask (TR_FEATURES)
+ *   TR_COUNT_RAY()      counts a ray query in benchmark builds (host only; else nothing)
  *
  * On the device, TR_FEATURES and TR_DOUBLE arrive as -D build options. On the host,
  * include/twinray/core/device_code.hpp includes the function headers inside
@@ -38,6 +39,9 @@ typedef float3 vec3;
 #endif
 #define TR_FN static inline
 #define TR_GLOBAL __global
+#define TR_COUNT_RAY() \
+  do {                 \
+  } while (0)
 #ifndef TR_FEATURES
 #error "TR_FEATURES (the Features mask) must be passed as a build option"
 #endif
@@ -49,6 +53,19 @@ typedef float3 vec3;
 #define TR_FN static inline
 #define TR_GLOBAL
 #define TR_VEC3(x, y, z) vec3((x), (y), (z))
+namespace twinray {
+namespace device {
+/* Ray queries of this thread in instantiations with TR_F_COUNT_RAYS (bench/). */
+inline long long& ray_counter() {
+  static thread_local long long count = 0;
+  return count;
+}
+}  // namespace device
+}  // namespace twinray
+#define TR_COUNT_RAY()                                               \
+  do {                                                               \
+    if (TR_HAS(TR_F_COUNT_RAYS)) ++::twinray::device::ray_counter(); \
+  } while (0)
 #endif
 
 #define TR_R(lit) ((real)(lit))

@@ -4,25 +4,8 @@
  * (bvh_traverse.h); planes are unbounded and always stay outside it.
  *
  * Every ray the renderer traces (camera, shadow, reflected) passes through one of the
- * two functions below, so that is where benchmarks count them: a host instantiation
- * whose mask has TR_F_COUNT_RAYS (never set by a render, never on the device) adds one
- * to a per-thread counter per query (bench/). */
-
-#define TR_F_COUNT_RAYS 0x80000000u
-#if defined(TR_DEVICE)
-#define TR_COUNT_RAY() \
-  do {                 \
-  } while (0)
-#else
-TR_FN long long* tr_ray_counter(void) {
-  static thread_local long long count = 0;
-  return &count;
-}
-#define TR_COUNT_RAY()                                \
-  do {                                                \
-    if (TR_HAS(TR_F_COUNT_RAYS)) ++*tr_ray_counter(); \
-  } while (0)
-#endif
+ * two functions below, so that is where benchmarks count them (TR_COUNT_RAY, prelude.h;
+ * nothing in a render or on the device). */
 
 TR_FN int tr_closest_hit(const TrSceneRef* s, TrRay ray, real tmax, TrHit* hit) {
   int found = 0;
