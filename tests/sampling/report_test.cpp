@@ -105,3 +105,37 @@ TEST_CASE("report: --quick writes the CSV, the Markdown table and the plots") {
 TEST_CASE("report: a missing -o is a usage error") {
   CHECK(run(std::string(TWINRAY_EXE) + " report --quick > /dev/null 2>&1") == 2);
 }
+
+TEST_CASE("render: --sampler, --seed and --adaptive, and the scene file's keys") {
+  const std::string dir = std::string(TWINRAY_REPORT_WORK_DIR) + "/flags";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string exe = std::string(TWINRAY_EXE) + " render ";
+  const std::string quiet = " --quiet --width 24 --height 16 > " + dir + "/log 2>&1";
+  CHECK(run(exe + "demo -o " + dir + "/a.pfm --sampler r2 --seed 3 --spp 2 --adaptive 8" + quiet) ==
+        0);
+  CHECK(read_file(dir + "/a.pfm").size() > 24 * 16 * 12);
+  CHECK(run(exe + "demo -o " + dir + "/b.pfm --sampler halton" + quiet) == 2);
+  CHECK(run(exe + "demo -o " + dir + "/b.pfm --spp 4 --adaptive 4" + quiet) == 2);
+  CHECK(read_file(dir + "/log").find("--adaptive") != std::string::npos);
+
+  auto scene = [&](const std::string& render) {
+    std::ofstream f(dir + "/s.json");
+    f << R"({"twinray": 1, "image": {"width": 8, "height": 8},
+             "camera": {"projection": "perspective", "position": [0, 0, 5], "look_at": [0, 0, 0], "up": [0, 1, 0]},
+             "render": )"
+      << render << R"(,
+             "lights": [{"type": "point", "position": [2, 2, 5], "intensity": 10}],
+             "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1,
+                          "material": {"color": [1, 1, 1]}}]})";
+  };
+  scene(
+      R"({"spp": 2, "sampler": "stratified", "seed": 7, "adaptive": {"spp": 8, "threshold": 0.1}})");
+  CHECK(run(exe + dir + "/s.json -o " + dir + "/c.pfm --quiet > " + dir + "/log 2>&1") == 0);
+  scene(R"({"spp": 4, "adaptive": {"spp": 4}})");
+  CHECK(run(exe + dir + "/s.json -o " + dir + "/c.pfm --quiet > " + dir + "/log 2>&1") == 2);
+  CHECK(read_file(dir + "/log").find("render.adaptive.spp") != std::string::npos);
+  scene(R"({"sampler": "sobol"})");
+  CHECK(run(exe + dir + "/s.json -o " + dir + "/c.pfm --quiet > " + dir + "/log 2>&1") == 2);
+  CHECK(read_file(dir + "/log").find("render.sampler") != std::string::npos);
+}
