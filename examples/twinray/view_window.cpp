@@ -4,6 +4,7 @@
 #include <SDL.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <condition_variable>
 #include <cstdio>
 #include <iostream>
@@ -195,6 +196,16 @@ int run_window(const twinray::io::SceneFile<T>& base, const WindowOptions& optio
                          std::string("cannot open a window: ") + SDL_GetError() +
                              " (the viewer needs a display; is DISPLAY set?)");
   SdlSession sdl;
+  // Without a display SDL falls back to drivers that draw nowhere; a window nobody sees
+  // would look like a hang. (SDL_VIDEODRIVER=offscreen still works when asked for.)
+  const char* driver = SDL_GetCurrentVideoDriver();
+  const char* asked = std::getenv("SDL_VIDEODRIVER");
+  std::string name = driver ? driver : "";
+  if ((!asked || !*asked) && (name.empty() || name == "offscreen" || name == "dummy"))
+    throw twinray::Error(twinray::ErrorKind::BackendUnavailable,
+                         "cannot open a window: no display (SDL found only the \"" + name +
+                             "\" video driver); run twinray view in a desktop session, or "
+                             "set DISPLAY");
   SDL_SetHint(SDL_HINT_RENDER_SCALE_QUALITY, "1");
   sdl.window = SDL_CreateWindow(
       controller.title(options.scene_name).c_str(), SDL_WINDOWPOS_CENTERED, SDL_WINDOWPOS_CENTERED,
