@@ -172,6 +172,20 @@ TEST_CASE("a kernel that fails to build: --backend auto falls back to the CPU wi
   CHECK(fs::exists(dir + "/out.png"));
 }
 
+TEST_CASE("a kernel that fails to build: adaptive sampling with --backend auto falls back too") {
+  // The adaptive passes take their own path through render(); the fallback must cover it.
+  std::string dir = work_dir("kernel_build_auto_adaptive");
+  ChildOptions o;
+  o.env = {"TWINRAY_TEST_KERNEL_APPEND=twinray_test_syntax_error here;"};
+  Child c =
+      render(dir, dir + "/out.png", {"--backend", "auto", "--spp", "2", "--adaptive", "8"}, o);
+  INFO(describe(c));
+  CHECK(c.status == 0);
+  CHECK(contains(c.err, "backend auto: OpenCL failed, using the CPU"));
+  CHECK(contains(c.out, "backend cpu"));
+  CHECK(fs::exists(dir + "/out.png"));
+}
+
 TEST_CASE("an image too large for the device: exit 1 naming the sizes, no file") {
   std::string dir = work_dir("too_large");
   ChildOptions o;

@@ -60,11 +60,11 @@ Image<T> render_packed(const PackedScene<T>& ps, unsigned features, const Render
     log_note(options, backend == Backend::OpenCL ? "backend auto: using OpenCL"
                                                  : "backend auto: using the CPU (" + why + ")");
   }
-  if (options.adaptive_spp > 0 && options.output == Output::Shaded)
-    return adaptive::render_packed(ps, features, backend, options, info);
+  const bool adaptive = options.adaptive_spp > 0 && options.output == Output::Shaded;
   if (backend == Backend::OpenCL) {
 #ifdef TWINRAY_WITH_OPENCL
     try {
+      if (adaptive) return adaptive::render_packed(ps, features, Backend::OpenCL, options, info);
       return opencl::render_packed(opencl::shared_context(options.device), ps, features,
                                    options.output, info);
     } catch (const Error& e) {
@@ -79,6 +79,7 @@ Image<T> render_packed(const PackedScene<T>& ps, unsigned features, const Render
                 "twinray was built without OpenCL (link twinray::opencl)");
 #endif
   }
+  if (adaptive) return adaptive::render_packed(ps, features, Backend::Cpu, options, info);
   auto t0 = std::chrono::steady_clock::now();
   unsigned compiled = cpu::compiled_features(features);
   Image<T> image = cpu::render_packed(ps, compiled, options.threads, options.output);
