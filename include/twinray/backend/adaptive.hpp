@@ -241,15 +241,7 @@ Image<T> render_opencl(opencl::Context& ctx, const PackedScene<T>& ps,
         "clEnqueueReadBuffer");
   transfer_ms += ms_since(t_read);
   ctx.save_binary(entry);
-  if (info) {
-    info->backend = Backend::OpenCL;
-    info->device = dev.name;
-    info->features = features;
-    info->build_ms = build_ms;
-    info->program_cached = !built_now || entry.from_cache;
-    info->render_ms = ms_since(t0);
-    info->transfer_ms = transfer_ms;
-  }
+  opencl::fill_info(info, dev, features, build_ms, !built_now || entry.from_cache, t0, transfer_ms);
   return image;
 }
 #endif
@@ -277,17 +269,7 @@ Image<T> render_packed(const PackedScene<T>& ps, unsigned features, Backend back
     auto t0 = std::chrono::steady_clock::now();
     unsigned compiled = cpu::compiled_features(features);
     image = render_cpu(ps, params, compiled, options.threads, &refined);
-    if (info) {
-      info->backend = Backend::Cpu;
-      info->device =
-          cpu::cpu_name() + ", " + std::to_string(cpu::thread_count(options.threads)) + " used";
-      info->features = compiled;
-      info->build_ms = 0;
-      info->program_cached = false;
-      info->transfer_ms = 0;
-      info->render_ms =
-          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    }
+    cpu::fill_info(info, compiled, options.threads, t0);
   }
   if (info) {
     info->refined_pixels = refined;

@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <thread>
 #include <vector>
 
@@ -102,6 +103,20 @@ Image<T> render_packed(const PackedScene<T>& ps, unsigned features, int threads,
 
 inline std::string cpu_name() {
   return "CPU, " + std::to_string(std::thread::hardware_concurrency()) + " hardware threads";
+}
+
+// What a CPU render reports: RenderInfo for `compiled` features on `threads` threads.
+inline void fill_info(RenderInfo* info, unsigned compiled, int threads,
+                      std::chrono::steady_clock::time_point start) {
+  if (!info) return;
+  info->backend = Backend::Cpu;
+  info->device = cpu_name() + ", " + std::to_string(thread_count(threads)) + " used";
+  info->features = compiled;
+  info->build_ms = 0;
+  info->program_cached = false;
+  info->transfer_ms = 0;
+  info->render_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
 }  // namespace cpu

@@ -490,6 +490,21 @@ inline Context& shared_context(int device_index) {
   return *registry.emplace(index, std::move(context)).first->second;
 }
 
+// What an OpenCL render reports: RenderInfo for a program of `features` on `dev`.
+inline void fill_info(RenderInfo* info, const DeviceInfo& dev, unsigned features, double build_ms,
+                      bool program_cached, std::chrono::steady_clock::time_point start,
+                      double transfer_ms) {
+  if (!info) return;
+  info->backend = Backend::OpenCL;
+  info->device = dev.name;
+  info->features = features;
+  info->build_ms = build_ms;
+  info->program_cached = program_cached;
+  info->render_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  info->transfer_ms = transfer_ms;
+}
+
 // Renders a packed scene on a device; `features` is the mask the program is built for
 // (TR_F_ALL: the generic program).
 template <class T>
@@ -557,16 +572,7 @@ Image<T> render_packed(Context& ctx, const PackedScene<T>& ps, unsigned features
   transfer_ms +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_read).count();
   ctx.save_binary(entry);
-  if (info) {
-    info->backend = Backend::OpenCL;
-    info->device = dev.name;
-    info->features = features;
-    info->build_ms = build_ms;
-    info->program_cached = !built_now || entry.from_cache;
-    info->render_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    info->transfer_ms = transfer_ms;
-  }
+  fill_info(info, dev, features, build_ms, !built_now || entry.from_cache, t0, transfer_ms);
   return image;
 }
 

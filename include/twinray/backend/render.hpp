@@ -83,16 +83,7 @@ Image<T> render_packed(const PackedScene<T>& ps, unsigned features, const Render
   auto t0 = std::chrono::steady_clock::now();
   unsigned compiled = cpu::compiled_features(features);
   Image<T> image = cpu::render_packed(ps, compiled, options.threads, options.output);
-  if (info) {
-    info->backend = Backend::Cpu;
-    info->device =
-        cpu::cpu_name() + ", " + std::to_string(cpu::thread_count(options.threads)) + " used";
-    info->features = compiled;
-    info->build_ms = 0;
-    info->program_cached = false;
-    info->render_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  }
+  cpu::fill_info(info, compiled, options.threads, t0);
   return image;
 }
 
