@@ -7,14 +7,13 @@
 #include <twinray/core/error.hpp>
 #include <twinray/io/obj_mesh.hpp>
 
+#include "fuzz_limits.hpp"
+
 namespace {
 
 template <class T>
 void load(const std::string& text) {
-  twinray::io::ObjLimits limits;
-  limits.max_file_bytes = 1 << 20;
-  limits.max_vertices = 1 << 14;
-  limits.max_triangles = 1 << 14;
+  const twinray::io::ObjLimits limits = fuzz::obj_limits();
   try {
     twinray::Mesh<T> mesh = twinray::io::parse_obj_mesh<T>(text, "fuzz.obj", limits);
     for (const auto& tri : mesh.triangles)

@@ -10,17 +10,13 @@
 #include <twinray/core/validate.hpp>
 #include <twinray/io/scene_json.hpp>
 
+#include "fuzz_limits.hpp"
+
 namespace {
 
 template <class T>
 void load(const std::string& text) {
-  // Limits small enough that the fuzzer cannot spend its time allocating.
-  twinray::io::SceneLimits limits;
-  limits.max_file_bytes = 1 << 20;
-  limits.max_obj_file_bytes = 1 << 20;
-  limits.max_objects = 1 << 12;
-  limits.max_mesh_vertices = 1 << 14;
-  limits.max_total_triangles = 1 << 14;
+  const twinray::io::SceneLimits limits = fuzz::scene_limits();
   try {
     twinray::io::SceneFile<T> f =
         twinray::io::parse_scene<T>(text, "fuzz.json", TWINRAY_FUZZ_OBJ_DIR, limits);

@@ -15,6 +15,8 @@
 #include <twinray/io/obj_mesh.hpp>
 #include <twinray/io/scene_json.hpp>
 
+#include "fuzz_limits.hpp"
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -32,15 +34,10 @@ std::string read(const fs::path& p) {
   return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
 }
 
-// The same limits as the fuzz targets (fuzz/fuzz_*.cpp).
+// Under the fuzz targets' own limits (fuzz/fuzz_limits.hpp).
 template <class T>
 void load_scene(const std::string& text, const std::string& name) {
-  twinray::io::SceneLimits limits;
-  limits.max_file_bytes = 1 << 20;
-  limits.max_obj_file_bytes = 1 << 20;
-  limits.max_objects = 1 << 12;
-  limits.max_mesh_vertices = 1 << 14;
-  limits.max_total_triangles = 1 << 14;
+  const twinray::io::SceneLimits limits = fuzz::scene_limits();
   try {
     twinray::io::SceneFile<T> f =
         twinray::io::parse_scene<T>(text, name, TWINRAY_FUZZ_OBJ_DIR, limits);
@@ -55,10 +52,7 @@ void load_scene(const std::string& text, const std::string& name) {
 
 template <class T>
 void load_obj(const std::string& text, const std::string& name) {
-  twinray::io::ObjLimits limits;
-  limits.max_file_bytes = 1 << 20;
-  limits.max_vertices = 1 << 14;
-  limits.max_triangles = 1 << 14;
+  const twinray::io::ObjLimits limits = fuzz::obj_limits();
   try {
     twinray::Mesh<T> mesh = twinray::io::parse_obj_mesh<T>(text, name, limits);
     for (const auto& tri : mesh.triangles)
