@@ -28,6 +28,15 @@
 
 namespace twinray_bench {
 
+// A comma-separated command-line list ("demo,spheres_1e3"), empty items dropped.
+inline std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream in(s);
+  for (std::string item; std::getline(in, item, ',');)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
 struct Row {
   std::string scene, backend, precision;
   int width = 0, height = 0, spp = 1;

@@ -359,14 +359,6 @@ struct Renderer {
   }
 };
 
-std::vector<std::string> split(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream in(s);
-  for (std::string item; std::getline(in, item, ',');)
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -382,9 +374,9 @@ int main(int argc, char** argv) {
     }
     std::string v = argv[++i];
     if (a == "--scenes")
-      scenes = split(v);
+      scenes = twinray_bench::split(v);
     else if (a == "--modes")
-      modes = split(v);
+      modes = twinray_bench::split(v);
     else if (a == "--runs")
       runs = std::max(1, std::atoi(v.c_str()));
     else if (a == "--width")

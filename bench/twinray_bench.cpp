@@ -17,14 +17,6 @@
 
 namespace {
 
-std::vector<std::string> split(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream in(s);
-  for (std::string item; std::getline(in, item, ',');)
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
-
 int usage(const std::string& what) {
   std::cerr
       << "twinray_bench: " << what
@@ -50,11 +42,11 @@ int main(int argc, char** argv) {
     };
     try {
       if (a == "--scenes")
-        scenes = split(value());
+        scenes = twinray_bench::split(value());
       else if (a == "--backends")
-        backends = split(value());
+        backends = twinray_bench::split(value());
       else if (a == "--precisions")
-        precisions = split(value());
+        precisions = twinray_bench::split(value());
       else if (a == "--runs")
         config.runs = std::max(1, std::atoi(value().c_str()));
       else if (a == "--width")
