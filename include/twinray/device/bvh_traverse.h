@@ -7,56 +7,46 @@
 #define TR_BVH_STACK_SIZE 64
 
 /* BVH primitive ids: spheres first, then triangles. */
-TR_FN int tr_intersect_primitive(const TrSceneRef* s, int prim, TrRay ray, real tmax, TrHit* hit) {
+TR_FN_INLINE int tr_intersect_primitive(const TrSceneRef* s, int prim, TrRay ray,
+                                        const TrTriangleRay* tri_ray, real tmax, TrHit* hit) {
   int n_spheres = s->params->n_spheres;
   if (TR_HAS(TR_F_SPHERES) && prim < n_spheres)
     return tr_intersect_sphere(&s->spheres[prim], ray, tmax, hit);
   if (TR_HAS(TR_F_TRIANGLES))
-    return tr_intersect_triangle(&s->triangles[prim - n_spheres], ray, tmax, hit);
+    return tr_intersect_triangle_prepared(&s->triangles[prim - n_spheres], ray, tri_ray, tmax, hit);
   return 0;
 }
 
 /* Slab test of one box; on a hit, *t_entry is where the ray enters it (0 if it starts
- * inside). The far end of every slab and of the ray segment is grown by 1 + 2 gamma(3)
- * (pbrt-v4), and the builder pads every box (core/bvh.hpp), so rounding never culls a
- * box that holds a primitive the primitive tests would report. A slab that gives NaN
- * (0 * inf: the origin on a face of a box the ray runs parallel to) fails both
- * compares and culls nothing. */
-TR_FN int tr_ray_hits_box(TR_GLOBAL const TrBvhNode* node, vec3 o, vec3 inv_d, real tmax,
-                          real* t_entry) {
+ * inside). The near and far planes of each slab are chosen by the sign of the inverse
+ * direction (Williams, Barrus, Morley, Shirley, "An Efficient and Robust Ray-Box
+ * Intersection Algorithm", JGT 2005), so there is no swap and no branch. The far end of
+ * every slab and of the ray segment is grown by 1 + 2 gamma(3) (pbrt-v4
+ * Bounds3::IntersectP), and the builder pads every box (core/bvh.hpp), so rounding
+ * never culls a box that holds a primitive the primitive tests would report. A slab
+ * distance that is NaN (0 * inf: the origin on a face of a box the ray runs parallel
+ * to) fails its compare below and narrows nothing. */
+TR_FN_INLINE int tr_ray_hits_box(TR_GLOBAL const TrBvhNode* node, vec3 o, vec3 inv_d, real tmax,
+                                 real* t_entry) {
   real grow = TR_R(1.0) + TR_R(2.0) * tr_gamma(3);
+  int neg_x = inv_d.x < TR_R(0.0), neg_y = inv_d.y < TR_R(0.0), neg_z = inv_d.z < TR_R(0.0);
+  /* Both planes are loaded first and then selected, so the choice compiles to a blend,
+   * not a branch. */
+  real lo_x = node->min_x, lo_y = node->min_y, lo_z = node->min_z;
+  real hi_x = node->max_x, hi_y = node->max_y, hi_z = node->max_z;
+  real near_x = ((neg_x ? hi_x : lo_x) - o.x) * inv_d.x;
+  real near_y = ((neg_y ? hi_y : lo_y) - o.y) * inv_d.y;
+  real near_z = ((neg_z ? hi_z : lo_z) - o.z) * inv_d.z;
+  real far_x = ((neg_x ? lo_x : hi_x) - o.x) * inv_d.x * grow;
+  real far_y = ((neg_y ? lo_y : hi_y) - o.y) * inv_d.y * grow;
+  real far_z = ((neg_z ? lo_z : hi_z) - o.z) * inv_d.z * grow;
   real t0 = TR_R(0.0), t1 = tmax * grow;
-  real tn, tf, tmp;
-  tn = (node->min_x - o.x) * inv_d.x;
-  tf = (node->max_x - o.x) * inv_d.x;
-  if (tn > tf) {
-    tmp = tn;
-    tn = tf;
-    tf = tmp;
-  }
-  tf = tf * grow;
-  t0 = tn > t0 ? tn : t0;
-  t1 = tf < t1 ? tf : t1;
-  tn = (node->min_y - o.y) * inv_d.y;
-  tf = (node->max_y - o.y) * inv_d.y;
-  if (tn > tf) {
-    tmp = tn;
-    tn = tf;
-    tf = tmp;
-  }
-  tf = tf * grow;
-  t0 = tn > t0 ? tn : t0;
-  t1 = tf < t1 ? tf : t1;
-  tn = (node->min_z - o.z) * inv_d.z;
-  tf = (node->max_z - o.z) * inv_d.z;
-  if (tn > tf) {
-    tmp = tn;
-    tn = tf;
-    tf = tmp;
-  }
-  tf = tf * grow;
-  t0 = tn > t0 ? tn : t0;
-  t1 = tf < t1 ? tf : t1;
+  t0 = near_x > t0 ? near_x : t0;
+  t0 = near_y > t0 ? near_y : t0;
+  t0 = near_z > t0 ? near_z : t0;
+  t1 = far_x < t1 ? far_x : t1;
+  t1 = far_y < t1 ? far_y : t1;
+  t1 = far_z < t1 ? far_z : t1;
   *t_entry = t0;
   return t0 <= t1;
 }
@@ -78,13 +68,14 @@ TR_FN int tr_bvh_walk(const TrSceneRef* s, TrRay ray, real tmax, TrHit* hit, int
   int found = 0;
   real t_root;
   if (!tr_ray_hits_box(&s->bvh_nodes[0], ray.o, inv_d, tmax, &t_root)) return 0;
+  TrTriangleRay tri_ray = tr_triangle_ray(ray);
   int index = 0;
   for (;;) {
     TR_GLOBAL const TrBvhNode* node = &s->bvh_nodes[index];
     int next = -1;
     if (node->count > 0) {
       for (int i = 0; i < node->count; ++i) {
-        if (tr_intersect_primitive(s, s->bvh_prims[node->first + i], ray, tmax, hit)) {
+        if (tr_intersect_primitive(s, s->bvh_prims[node->first + i], ray, &tri_ray, tmax, hit)) {
           found = 1;
           tmax = hit->t;
           if (any_hit) return 1;

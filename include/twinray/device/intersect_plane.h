@@ -5,7 +5,7 @@
  * bounded by gamma(8) (|p| + |point|) per axis (our derivation: 3 roundings for
  * p - point, 3 for the dot product, 2 for the correction). */
 
-TR_FN int tr_intersect_plane(TR_GLOBAL const TrPlane* pl, TrRay ray, real tmax, TrHit* hit) {
+TR_FN_INLINE int tr_intersect_plane(TR_GLOBAL const TrPlane* pl, TrRay ray, real tmax, TrHit* hit) {
   vec3 n = TR_VEC3(pl->nx, pl->ny, pl->nz);
   vec3 point = TR_VEC3(pl->px, pl->py, pl->pz);
   real denom = tr_dot(ray.d, n);

@@ -51,7 +51,8 @@ TR_FN real tr_sphere_c(vec3 f, vec3 o, vec3 center, real r) {
   return c;
 }
 
-TR_FN int tr_intersect_sphere(TR_GLOBAL const TrSphere* sp, TrRay ray, real tmax, TrHit* hit) {
+TR_FN_INLINE int tr_intersect_sphere(TR_GLOBAL const TrSphere* sp, TrRay ray, real tmax,
+                                     TrHit* hit) {
   vec3 center = TR_VEC3(sp->cx, sp->cy, sp->cz);
   real r = sp->radius;
   vec3 f = ray.o - center;

@@ -14,25 +14,36 @@ TR_FN vec3 tr_permute(vec3 v, int kx, int ky, int kz) {
   return TR_VEC3(tr_component(v, kx), tr_component(v, ky), tr_component(v, kz));
 }
 
-TR_FN int tr_intersect_triangle(TR_GLOBAL const TrTriangle* tri, TrRay ray, real tmax, TrHit* hit) {
+/* The part of the test that depends on the ray alone: which axis becomes z and the
+ * shear. Computed once per ray query (scene_hit.h, bvh_traverse.h), not per triangle:
+ * it holds three of the test's four divisions. */
+TR_FN_INLINE TrTriangleRay tr_triangle_ray(TrRay ray) {
+  TrTriangleRay tr;
+  vec3 ad = tr_abs3(ray.d);
+  tr.kz = ad.x > ad.y ? (ad.x > ad.z ? 0 : 2) : (ad.y > ad.z ? 1 : 2);
+  tr.kx = tr.kz == 2 ? 0 : tr.kz + 1;
+  tr.ky = tr.kx == 2 ? 0 : tr.kx + 1;
+  vec3 d = tr_permute(ray.d, tr.kx, tr.ky, tr.kz);
+  tr.sx = -d.x / d.z;
+  tr.sy = -d.y / d.z;
+  tr.sz = TR_R(1.0) / d.z;
+  return tr;
+}
+
+TR_FN_INLINE int tr_intersect_triangle_prepared(TR_GLOBAL const TrTriangle* tri, TrRay ray,
+                                                const TrTriangleRay* tr, real tmax, TrHit* hit) {
   vec3 p0 = TR_VEC3(tri->p0x, tri->p0y, tri->p0z);
   vec3 p1 = TR_VEC3(tri->p1x, tri->p1y, tri->p1z);
   vec3 p2 = TR_VEC3(tri->p2x, tri->p2y, tri->p2z);
 
   /* Translate to the ray origin, permute so the dominant direction axis is z. */
-  vec3 ad = tr_abs3(ray.d);
-  int kz = ad.x > ad.y ? (ad.x > ad.z ? 0 : 2) : (ad.y > ad.z ? 1 : 2);
-  int kx = kz == 2 ? 0 : kz + 1;
-  int ky = kx == 2 ? 0 : kx + 1;
-  vec3 d = tr_permute(ray.d, kx, ky, kz);
+  int kx = tr->kx, ky = tr->ky, kz = tr->kz;
   vec3 a = tr_permute(p0 - ray.o, kx, ky, kz);
   vec3 b = tr_permute(p1 - ray.o, kx, ky, kz);
   vec3 c = tr_permute(p2 - ray.o, kx, ky, kz);
 
   /* Shear x and y so the ray direction becomes +z. */
-  real sx = -d.x / d.z;
-  real sy = -d.y / d.z;
-  real sz = TR_R(1.0) / d.z;
+  real sx = tr->sx, sy = tr->sy, sz = tr->sz;
   real ax = a.x + sx * a.z, ay = a.y + sy * a.z;
   real bx = b.x + sx * b.z, by = b.y + sy * b.z;
   real cx = c.x + sx * c.z, cy = c.y + sy * c.z;
@@ -95,4 +106,10 @@ TR_FN int tr_intersect_triangle(TR_GLOBAL const TrTriangle* tri, TrRay ray, real
   hit->material = tri->material;
   hit->object = tri->object;
   return 1;
+}
+
+/* The whole test for one ray and one triangle (tests and one-off queries). */
+TR_FN int tr_intersect_triangle(TR_GLOBAL const TrTriangle* tri, TrRay ray, real tmax, TrHit* hit) {
+  TrTriangleRay tr = tr_triangle_ray(ray);
+  return tr_intersect_triangle_prepared(tri, ray, &tr, tmax, hit);
 }

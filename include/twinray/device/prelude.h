@@ -7,6 +7,10 @@
  *   TR_R(lit)           a literal of type real; device code uses dyadic literals only
  *                       (0.5, 1, 2^-24, ...), which every conversion keeps exact
  *   TR_FN               qualifier of every device function
+ *   TR_FN_INLINE        the same, for small functions on the hottest paths (box and
+ *                       primitive tests): always inlined on the host, where g++ otherwise
+ *                       keeps them as calls and passes vectors through memory; PoCL
+ *                       inlines every function into the kernel anyway
  *   TR_GLOBAL           address space of pointers into scene buffers
  *   TR_HAS(bit)         compile-time test of the Features mask (TR_FEATURES)
  *   TR_COUNT_RAY()      counts a ray query in benchmark builds (host only; else nothing)
@@ -38,6 +42,7 @@ typedef float3 vec3;
 #define TR_VEC3(x, y, z) ((float3)((x), (y), (z)))
 #endif
 #define TR_FN static inline
+#define TR_FN_INLINE static inline
 #define TR_GLOBAL __global
 #define TR_COUNT_RAY() \
   do {                 \
@@ -51,6 +56,11 @@ typedef float3 vec3;
 #include <cmath>
 #include <glm/vec3.hpp>
 #define TR_FN static inline
+#if defined(__GNUC__) || defined(__clang__)
+#define TR_FN_INLINE static inline __attribute__((always_inline))
+#else
+#define TR_FN_INLINE static inline
+#endif
 #define TR_GLOBAL
 #define TR_VEC3(x, y, z) vec3((x), (y), (z))
 namespace twinray {

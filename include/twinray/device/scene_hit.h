@@ -22,8 +22,9 @@ TR_FN int tr_closest_hit(const TrSceneRef* s, TrRay ray, real tmax, TrHit* hit) 
         }
     }
     if (TR_HAS(TR_F_TRIANGLES)) {
+      TrTriangleRay tri_ray = tr_triangle_ray(ray);
       for (int i = 0; i < s->params->n_triangles; ++i)
-        if (tr_intersect_triangle(&s->triangles[i], ray, tmax, hit)) {
+        if (tr_intersect_triangle_prepared(&s->triangles[i], ray, &tri_ray, tmax, hit)) {
           found = 1;
           tmax = hit->t;
         }
@@ -51,8 +52,10 @@ TR_FN int tr_any_hit(const TrSceneRef* s, TrRay ray, real tmax) {
         if (tr_intersect_sphere(&s->spheres[i], ray, tmax, &scratch)) return 1;
     }
     if (TR_HAS(TR_F_TRIANGLES)) {
+      TrTriangleRay tri_ray = tr_triangle_ray(ray);
       for (int i = 0; i < s->params->n_triangles; ++i)
-        if (tr_intersect_triangle(&s->triangles[i], ray, tmax, &scratch)) return 1;
+        if (tr_intersect_triangle_prepared(&s->triangles[i], ray, &tri_ray, tmax, &scratch))
+          return 1;
     }
   }
   if (TR_HAS(TR_F_PLANES)) {

@@ -82,6 +82,13 @@ typedef struct TrRay {
   vec3 o, d; /* d has unit length */
 } TrRay;
 
+/* The ray's part of the watertight triangle test (intersect_triangle.h): the axis
+ * permutation and the shear. */
+typedef struct TrTriangleRay {
+  real sx, sy, sz;
+  int kx, ky, kz;
+} TrTriangleRay;
+
 typedef struct TrHit {
   real t;
   vec3 p;    /* hit point, refined onto the surface */
