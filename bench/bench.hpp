@@ -151,6 +151,14 @@ Row run(const BenchScene<T>& b, twinray::Backend backend, const Config& config) 
   row.build_ms = ms_since(t0);
   row.primitives =
       static_cast<long long>(ps.spheres.size() + ps.triangles.size() + ps.planes.size());
+  if (!ps.bvh_nodes.empty()) {
+    twinray::bvh::Stats st = twinray::bvh::stats(ps.bvh_nodes);
+    char buf[160];
+    std::snprintf(
+        buf, sizeof buf, ": BVH %d nodes, %d leaves (%.2f primitives each, at most %d), depth %d",
+        st.nodes, st.leaves, double(ps.bvh_prims.size()) / st.leaves, st.max_leaf, st.max_depth);
+    config.note(b.name + " " + row.precision + buf);
+  }
 
   twinray::RenderInfo info;
   auto w0 = std::chrono::steady_clock::now();
