@@ -53,9 +53,10 @@ inline bool worth_building(long long n_spheres, long long n_triangles) {
   return n_spheres + kTriangleWeight * n_triangles >= kMinWeight;
 }
 
-constexpr int kMaxDepth = 48;    // leaf depth cap; TR_BVH_STACK_SIZE >= kMaxDepth + 1
-constexpr int kMaxLeafSize = 8;  // SAH leaves hold at most this many primitives
-constexpr int kBins = 16;        // SAH bins per axis
+constexpr int kMaxDepth = 48;        // leaf depth cap; TR_BVH_STACK_SIZE >= kMaxDepth + 1
+constexpr int kMaxLeafSize = 8;      // SAH leaves hold at most this many primitives
+constexpr int kBins = 16;            // SAH bins per axis
+constexpr int kAllAxesBelow = 4096;  // larger nodes bin along their widest axis only
 // SAH cost of visiting an inner node, relative to one primitive test: the walk tests
 // both children's boxes there, each about as dear as a sphere test. At 1 the builder
 // split down to 1.19 spheres per leaf (1.7M nodes for 1e6 spheres); at 2 leaves hold
@@ -272,22 +273,36 @@ struct Builder {
     // sweeping 3 x 16 bins cost them more than binning their primitives (measured:
     // 30-40% of a 1e6-sphere build).
     const int n_bins = std::min(kBins, n);
-    // One pass over the primitives bins them along all three axes at once.
+    // Nodes of kAllAxesBelow primitives or more are binned along the widest axis of
+    // their centroids only, as pbrt-v4's BVHAggregate does at every node: a third of
+    // the binning work where it is dearest; smaller nodes try all three axes in one pass.
+    const int widest = widest_axis(cbox);
+    const bool all_axes = n < kAllAxesBelow;
     Bin bins[3][kBins];
     double scale[3];
     bool usable[3];
     for (int a = 0; a < 3; ++a) {
       double extent = cbox.hi[a] - cbox.lo[a];
-      usable[a] = extent > 0;
+      usable[a] = extent > 0 && (all_axes || a == widest);
       scale[a] = usable[a] ? n_bins / extent : 0;
       for (int b = 0; b < n_bins; ++b) {
         bins[a][b].box = BasicBox<R>();
         bins[a][b].count = 0;
       }
     }
-    for (int i = begin; i < end; ++i) {
-      const PrimRef<R>& r = refs[static_cast<size_t>(i)];
-      for (int a = 0; a < 3; ++a) {
+    if (all_axes) {
+      for (int i = begin; i < end; ++i) {
+        const PrimRef<R>& r = refs[static_cast<size_t>(i)];
+        for (int a = 0; a < 3; ++a) {
+          int b = std::min(n_bins - 1, static_cast<int>((r.centroid(a) - cbox.lo[a]) * scale[a]));
+          bins[a][b].count++;
+          bins[a][b].box.grow(r.box);
+        }
+      }
+    } else if (usable[widest]) {
+      const int a = widest;
+      for (int i = begin; i < end; ++i) {
+        const PrimRef<R>& r = refs[static_cast<size_t>(i)];
         int b = std::min(n_bins - 1, static_cast<int>((r.centroid(a) - cbox.lo[a]) * scale[a]));
         bins[a][b].count++;
         bins[a][b].box.grow(r.box);
