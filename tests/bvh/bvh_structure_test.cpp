@@ -50,8 +50,11 @@ void prim_bounds(const PackedScene<T>& ps, int id, T lo[3], T hi[3]) {
 
 template <class Node>
 bool contains(const Node& outer, const Node& inner) {
-  return outer.min_x <= inner.min_x && outer.min_y <= inner.min_y && outer.min_z <= inner.min_z &&
-         outer.max_x >= inner.max_x && outer.max_y >= inner.max_y && outer.max_z >= inner.max_z;
+  for (int a = 0; a < 3; ++a)
+    if (!(outer.bounds[TR_BVH_MIN_X + a] <= inner.bounds[TR_BVH_MIN_X + a] &&
+          outer.bounds[TR_BVH_MAX_X + a] >= inner.bounds[TR_BVH_MAX_X + a]))
+      return false;
+  return true;
 }
 
 // Walks the whole tree: every node reached once, children inside parents, leaves
@@ -84,12 +87,10 @@ void check_structure(const PackedScene<T>& ps) {
         seen_prim[id]++;
         T lo[3], hi[3];
         prim_bounds(ps, id, lo, hi);
-        CHECK(node.min_x < lo[0]);
-        CHECK(node.min_y < lo[1]);
-        CHECK(node.min_z < lo[2]);
-        CHECK(node.max_x > hi[0]);
-        CHECK(node.max_y > hi[1]);
-        CHECK(node.max_z > hi[2]);
+        for (int a = 0; a < 3; ++a) {
+          CHECK(node.bounds[TR_BVH_MIN_X + a] < lo[a]);
+          CHECK(node.bounds[TR_BVH_MAX_X + a] > hi[a]);
+        }
       }
     } else {
       REQUIRE(node.count >= -2);

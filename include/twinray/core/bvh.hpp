@@ -29,6 +29,7 @@
 #include <cstdint>
 #include <limits>
 #include <thread>
+#include <type_traits>
 #include <vector>
 
 #include <twinray/core/device_code.hpp>
@@ -226,14 +227,14 @@ struct Builder {
   // magnitude (about 8 float ulps), then rounds away from its center in the
   // precision of the scene.
   static void set_box(Node& node, const Box& b) {
-    using real = decltype(node.min_x);
+    using real = typename std::remove_reference<decltype(node.bounds[0])>::type;
     double mag = 0;
     for (int a = 0; a < 3; ++a) mag = std::max({mag, std::fabs(b.lo[a]), std::fabs(b.hi[a])});
     double pad = mag * 0x1p-20 + std::numeric_limits<double>::denorm_min();
-    node.min_x = round_down<real>(b.lo[0] - pad), node.min_y = round_down<real>(b.lo[1] - pad),
-    node.min_z = round_down<real>(b.lo[2] - pad);
-    node.max_x = round_up<real>(b.hi[0] + pad), node.max_y = round_up<real>(b.hi[1] + pad),
-    node.max_z = round_up<real>(b.hi[2] + pad);
+    for (int a = 0; a < 3; ++a) {
+      node.bounds[TR_BVH_MIN_X + a] = round_down<real>(b.lo[a] - pad);
+      node.bounds[TR_BVH_MAX_X + a] = round_up<real>(b.hi[a] + pad);
+    }
   }
 
   static int widest_axis(const Box& b) {

@@ -17,29 +17,38 @@ TR_FN_INLINE int tr_intersect_primitive(const TrSceneRef* s, int prim, TrRay ray
   return 0;
 }
 
+/* The box test's view of a ray; computed once per query. */
+TR_FN_INLINE TrBoxRay tr_box_ray(TrRay ray) {
+  TrBoxRay br;
+  br.o = ray.o;
+  br.inv_d = TR_VEC3(TR_R(1.0) / ray.d.x, TR_R(1.0) / ray.d.y, TR_R(1.0) / ray.d.z);
+  br.near_x = br.inv_d.x < TR_R(0.0) ? TR_BVH_MAX_X : TR_BVH_MIN_X;
+  br.near_y = (br.inv_d.y < TR_R(0.0) ? TR_BVH_MAX_X : TR_BVH_MIN_X) + 1;
+  br.near_z = (br.inv_d.z < TR_R(0.0) ? TR_BVH_MAX_X : TR_BVH_MIN_X) + 2;
+  br.far_x = br.inv_d.x < TR_R(0.0) ? TR_BVH_MIN_X : TR_BVH_MAX_X;
+  br.far_y = (br.inv_d.y < TR_R(0.0) ? TR_BVH_MIN_X : TR_BVH_MAX_X) + 1;
+  br.far_z = (br.inv_d.z < TR_R(0.0) ? TR_BVH_MIN_X : TR_BVH_MAX_X) + 2;
+  return br;
+}
+
 /* Slab test of one box; on a hit, *t_entry is where the ray enters it (0 if it starts
  * inside). The near and far planes of each slab are chosen by the sign of the inverse
- * direction (Williams, Barrus, Morley, Shirley, "An Efficient and Robust Ray-Box
- * Intersection Algorithm", JGT 2005), so there is no swap and no branch. The far end of
- * every slab and of the ray segment is grown by 1 + 2 gamma(3) (pbrt-v4
+ * direction, once per ray (Williams, Barrus, Morley, Shirley, "An Efficient and Robust
+ * Ray-Box Intersection Algorithm", JGT 2005), so there is no swap and no branch. The
+ * far end of every slab and of the ray segment is grown by 1 + 2 gamma(3) (pbrt-v4
  * Bounds3::IntersectP), and the builder pads every box (core/bvh.hpp), so rounding
  * never culls a box that holds a primitive the primitive tests would report. A slab
  * distance that is NaN (0 * inf: the origin on a face of a box the ray runs parallel
  * to) fails its compare below and narrows nothing. */
-TR_FN_INLINE int tr_ray_hits_box(TR_GLOBAL const TrBvhNode* node, vec3 o, vec3 inv_d, real tmax,
+TR_FN_INLINE int tr_ray_hits_box(TR_GLOBAL const TrBvhNode* node, const TrBoxRay* br, real tmax,
                                  real* t_entry) {
   real grow = TR_R(1.0) + TR_R(2.0) * tr_gamma(3);
-  int neg_x = inv_d.x < TR_R(0.0), neg_y = inv_d.y < TR_R(0.0), neg_z = inv_d.z < TR_R(0.0);
-  /* Both planes are loaded first and then selected, so the choice compiles to a blend,
-   * not a branch. */
-  real lo_x = node->min_x, lo_y = node->min_y, lo_z = node->min_z;
-  real hi_x = node->max_x, hi_y = node->max_y, hi_z = node->max_z;
-  real near_x = ((neg_x ? hi_x : lo_x) - o.x) * inv_d.x;
-  real near_y = ((neg_y ? hi_y : lo_y) - o.y) * inv_d.y;
-  real near_z = ((neg_z ? hi_z : lo_z) - o.z) * inv_d.z;
-  real far_x = ((neg_x ? lo_x : hi_x) - o.x) * inv_d.x * grow;
-  real far_y = ((neg_y ? lo_y : hi_y) - o.y) * inv_d.y * grow;
-  real far_z = ((neg_z ? lo_z : hi_z) - o.z) * inv_d.z * grow;
+  real near_x = (node->bounds[br->near_x] - br->o.x) * br->inv_d.x;
+  real near_y = (node->bounds[br->near_y] - br->o.y) * br->inv_d.y;
+  real near_z = (node->bounds[br->near_z] - br->o.z) * br->inv_d.z;
+  real far_x = (node->bounds[br->far_x] - br->o.x) * br->inv_d.x * grow;
+  real far_y = (node->bounds[br->far_y] - br->o.y) * br->inv_d.y * grow;
+  real far_z = (node->bounds[br->far_z] - br->o.z) * br->inv_d.z * grow;
   real t0 = TR_R(0.0), t1 = tmax * grow;
   t0 = near_x > t0 ? near_x : t0;
   t0 = near_y > t0 ? near_y : t0;
@@ -60,14 +69,14 @@ TR_FN_INLINE int tr_ray_hits_box(TR_GLOBAL const TrBvhNode* node, vec3 o, vec3 i
  * overflows. */
 TR_FN int tr_bvh_walk(const TrSceneRef* s, TrRay ray, real tmax, TrHit* hit, int any_hit) {
   if (s->params->n_bvh_nodes <= 0) return 0;
-  vec3 inv_d = TR_VEC3(TR_R(1.0) / ray.d.x, TR_R(1.0) / ray.d.y, TR_R(1.0) / ray.d.z);
+  TrBoxRay box_ray = tr_box_ray(ray);
   real grow = TR_R(1.0) + TR_R(2.0) * tr_gamma(3);
   int stack_node[TR_BVH_STACK_SIZE];
   real stack_t[TR_BVH_STACK_SIZE];
   int top = 0;
   int found = 0;
   real t_root;
-  if (!tr_ray_hits_box(&s->bvh_nodes[0], ray.o, inv_d, tmax, &t_root)) return 0;
+  if (!tr_ray_hits_box(&s->bvh_nodes[0], &box_ray, tmax, &t_root)) return 0;
   TrTriangleRay tri_ray = tr_triangle_ray(ray);
   int index = 0;
   for (;;) {
@@ -84,8 +93,8 @@ TR_FN int tr_bvh_walk(const TrSceneRef* s, TrRay ray, real tmax, TrHit* hit, int
     } else {
       int left = node->first;
       real t_left, t_right;
-      int hit_left = tr_ray_hits_box(&s->bvh_nodes[left], ray.o, inv_d, tmax, &t_left);
-      int hit_right = tr_ray_hits_box(&s->bvh_nodes[left + 1], ray.o, inv_d, tmax, &t_right);
+      int hit_left = tr_ray_hits_box(&s->bvh_nodes[left], &box_ray, tmax, &t_left);
+      int hit_right = tr_ray_hits_box(&s->bvh_nodes[left + 1], &box_ray, tmax, &t_right);
       if (hit_left && hit_right) {
         int right_first = t_right < t_left;
         if (top < TR_BVH_STACK_SIZE) {

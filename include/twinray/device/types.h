@@ -38,13 +38,24 @@ typedef struct TrLight {
   real px, py, pz, r, g, b;
 } TrLight;
 
-/* Flattened BVH node. A leaf has count > 0 primitives starting at `first` in the
- * primitive index array; an inner node has count = -axis (0, -1 or -2, its split
- * axis) and its children at `first` (lower along the axis) and `first + 1`. */
+/* Flattened BVH node. bounds: min x, y, z, then max x, y, z (an array, so the walk
+ * can pick a slab's near and far plane by index, bvh_traverse.h). A leaf has
+ * count > 0 primitives starting at `first` in the primitive index array; an inner
+ * node has count = -axis (0, -1 or -2, its split axis) and its children at `first`
+ * (lower along the axis) and `first + 1`. */
+#define TR_BVH_MIN_X 0
+#define TR_BVH_MAX_X 3
 typedef struct TrBvhNode {
-  real min_x, min_y, min_z, max_x, max_y, max_z;
+  real bounds[6];
   int first, count;
 } TrBvhNode;
+
+/* A ray as the box test wants it: 1/d, and per axis the index into bounds of the
+ * plane it meets first (the max plane where d < 0) and of the one it leaves by. */
+typedef struct TrBoxRay {
+  vec3 o, inv_d;
+  int near_x, near_y, near_z, far_x, far_y, far_z;
+} TrBoxRay;
 
 /* Per-frame data: camera, image, counts and run-time switches. */
 typedef struct TrParams {
