@@ -11,6 +11,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <string>
@@ -173,15 +174,7 @@ Image<T> render_opencl(opencl::Context& ctx, const PackedScene<T>& ps,
   const int width = params.width, height = params.height;
   const size_t pixels = static_cast<size_t>(width) * height;
   auto t_upload = clock::now();
-  cl_mem scene[8] = {
-      ctx.upload("params", &params, sizeof params),
-      ctx.upload("spheres", ps.spheres.data(), ps.spheres.size() * sizeof ps.spheres[0]),
-      ctx.upload("triangles", ps.triangles.data(), ps.triangles.size() * sizeof ps.triangles[0]),
-      ctx.upload("planes", ps.planes.data(), ps.planes.size() * sizeof ps.planes[0]),
-      ctx.upload("materials", ps.materials.data(), ps.materials.size() * sizeof ps.materials[0]),
-      ctx.upload("lights", ps.lights.data(), ps.lights.size() * sizeof ps.lights[0]),
-      ctx.upload("bvh_nodes", ps.bvh_nodes.data(), ps.bvh_nodes.size() * sizeof ps.bvh_nodes[0]),
-      ctx.upload("bvh_prims", ps.bvh_prims.data(), ps.bvh_prims.size() * sizeof(int))};
+  std::array<cl_mem, opencl::kSceneArgs> scene = opencl::upload_scene(ctx, ps, params);
   double transfer_ms = ms_since(t_upload);
   cl_mem out = ctx.output(pixels * 3 * sizeof(T));
   cl_mem stats = ctx.scratch("adaptive_stats", pixels * TR_ADAPTIVE_STATS * sizeof(T));
@@ -190,12 +183,12 @@ Image<T> render_opencl(opencl::Context& ctx, const PackedScene<T>& ps,
   auto arg = [](cl_kernel k, cl_uint i, size_t size, const void* value) {
     check(clSetKernelArg(k, i, size, value), "clSetKernelArg");
   };
-  for (cl_uint i = 0; i < 8; ++i) {
+  for (cl_uint i = 0; i < opencl::kSceneArgs; ++i) {
     arg(first, i, sizeof(cl_mem), &scene[i]);
     arg(refine, i, sizeof(cl_mem), &scene[i]);
   }
-  arg(first, 8, sizeof(cl_mem), &out);
-  arg(first, 9, sizeof(cl_mem), &stats);
+  arg(first, opencl::kSceneArgs, sizeof(cl_mem), &out);
+  arg(first, opencl::kSceneArgs + 1, sizeof(cl_mem), &stats);
   arg(mark, 0, sizeof(cl_mem), &scene[0]);
   arg(mark, 1, sizeof(cl_mem), &stats);
   arg(mark, 2, sizeof(cl_mem), &flags);
@@ -221,10 +214,10 @@ Image<T> render_opencl(opencl::Context& ctx, const PackedScene<T>& ps,
   if (count > 0) {
     cl_mem list_mem = ctx.upload("adaptive_pixels", list.data(), list.size() * sizeof(int));
     transfer_ms += ms_since(t_flags);
-    arg(refine, 8, sizeof(cl_mem), &out);
-    arg(refine, 9, sizeof(cl_mem), &stats);
-    arg(refine, 10, sizeof(cl_mem), &list_mem);
-    arg(refine, 11, sizeof count, &count);
+    arg(refine, opencl::kSceneArgs, sizeof(cl_mem), &out);
+    arg(refine, opencl::kSceneArgs + 1, sizeof(cl_mem), &stats);
+    arg(refine, opencl::kSceneArgs + 2, sizeof(cl_mem), &list_mem);
+    arg(refine, opencl::kSceneArgs + 3, sizeof count, &count);
     size_t local1 = 64, global1 = (static_cast<size_t>(count) + 63) / 64 * 64;
     check(clEnqueueNDRangeKernel(ctx.queue(), refine, 1, nullptr, &global1, &local1, 0, nullptr,
                                  nullptr),

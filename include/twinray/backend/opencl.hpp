@@ -16,6 +16,7 @@
 #endif
 #include <CL/cl.h>
 
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
@@ -505,6 +506,25 @@ inline void fill_info(RenderInfo* info, const DeviceInfo& dev, unsigned features
   info->transfer_ms = transfer_ms;
 }
 
+// Uploads the eight scene buffers in the order every kernel in kernels/render.cl takes
+// them as its first arguments: params, spheres, triangles, planes, materials, lights,
+// bvh_nodes, bvh_prims. `params` is passed apart because the adaptive passes upload a
+// modified copy of ps.params.
+constexpr cl_uint kSceneArgs = 8;
+template <class T>
+std::array<cl_mem, kSceneArgs> upload_scene(Context& ctx, const PackedScene<T>& ps,
+                                            const typename device::Code<T>::Params& params) {
+  return {
+      ctx.upload("params", &params, sizeof params),
+      ctx.upload("spheres", ps.spheres.data(), ps.spheres.size() * sizeof ps.spheres[0]),
+      ctx.upload("triangles", ps.triangles.data(), ps.triangles.size() * sizeof ps.triangles[0]),
+      ctx.upload("planes", ps.planes.data(), ps.planes.size() * sizeof ps.planes[0]),
+      ctx.upload("materials", ps.materials.data(), ps.materials.size() * sizeof ps.materials[0]),
+      ctx.upload("lights", ps.lights.data(), ps.lights.size() * sizeof ps.lights[0]),
+      ctx.upload("bvh_nodes", ps.bvh_nodes.data(), ps.bvh_nodes.size() * sizeof ps.bvh_nodes[0]),
+      ctx.upload("bvh_prims", ps.bvh_prims.data(), ps.bvh_prims.size() * sizeof(int))};
+}
+
 // Renders a packed scene on a device; `features` is the mask the program is built for
 // (TR_F_ALL: the generic program).
 template <class T>
@@ -535,26 +555,19 @@ Image<T> render_packed(Context& ctx, const PackedScene<T>& ps, unsigned features
   const int width = ps.params.width, height = ps.params.height;
   size_t out_bytes = static_cast<size_t>(width) * height * 3 * sizeof(T);
   auto t_upload = std::chrono::steady_clock::now();
-  cl_mem args[9] = {
-      ctx.upload("params", &ps.params, sizeof ps.params),
-      ctx.upload("spheres", ps.spheres.data(), ps.spheres.size() * sizeof ps.spheres[0]),
-      ctx.upload("triangles", ps.triangles.data(), ps.triangles.size() * sizeof ps.triangles[0]),
-      ctx.upload("planes", ps.planes.data(), ps.planes.size() * sizeof ps.planes[0]),
-      ctx.upload("materials", ps.materials.data(), ps.materials.size() * sizeof ps.materials[0]),
-      ctx.upload("lights", ps.lights.data(), ps.lights.size() * sizeof ps.lights[0]),
-      ctx.upload("bvh_nodes", ps.bvh_nodes.data(), ps.bvh_nodes.size() * sizeof ps.bvh_nodes[0]),
-      ctx.upload("bvh_prims", ps.bvh_prims.data(), ps.bvh_prims.size() * sizeof(int)),
-      ctx.output(out_bytes)};
+  std::array<cl_mem, kSceneArgs> scene = upload_scene(ctx, ps, ps.params);
+  cl_mem out = ctx.output(out_bytes);
   double transfer_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_upload)
           .count();
-  for (cl_uint i = 0; i < 9; ++i)
-    check(clSetKernelArg(kernel, i, sizeof(cl_mem), &args[i]), "clSetKernelArg");
+  for (cl_uint i = 0; i < kSceneArgs; ++i)
+    check(clSetKernelArg(kernel, i, sizeof(cl_mem), &scene[i]), "clSetKernelArg");
+  check(clSetKernelArg(kernel, kSceneArgs, sizeof(cl_mem), &out), "clSetKernelArg");
   if (output != Output::Shaded) {
     cl_int aov = output == Output::Depth    ? TR_AOV_DEPTH
                  : output == Output::Normal ? TR_AOV_NORMAL
                                             : TR_AOV_OBJECT;
-    check(clSetKernelArg(kernel, 9, sizeof aov, &aov), "clSetKernelArg");
+    check(clSetKernelArg(kernel, kSceneArgs + 1, sizeof aov, &aov), "clSetKernelArg");
   }
   // Rows of 64 on CPU devices (PoCL: best measured, research/parity-findings.md Q5);
   // 8x8 tiles elsewhere. One fixed local size: PoCL generates code once per size.
@@ -566,8 +579,8 @@ Image<T> render_packed(Context& ctx, const PackedScene<T>& ps, unsigned features
   Image<T> image(width, height);
   check(clFinish(ctx.queue()), "clFinish");  // so the read below times the copy alone
   auto t_read = std::chrono::steady_clock::now();
-  check(clEnqueueReadBuffer(ctx.queue(), args[8], CL_TRUE, 0, out_bytes, image.rgb.data(), 0,
-                            nullptr, nullptr),
+  check(clEnqueueReadBuffer(ctx.queue(), out, CL_TRUE, 0, out_bytes, image.rgb.data(), 0, nullptr,
+                            nullptr),
         "clEnqueueReadBuffer");
   transfer_ms +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_read).count();

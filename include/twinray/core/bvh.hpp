@@ -291,23 +291,21 @@ struct Builder {
         bins[a][b].count = 0;
       }
     }
+    // The one bin computation: binning and the partition below both call it, so each
+    // primitive goes to the side it was counted on.
+    auto bin_of = [&](const PrimRef<R>& r, int a) {
+      return std::min(n_bins - 1, static_cast<int>((r.centroid(a) - cbox.lo[a]) * scale[a]));
+    };
+    auto add = [&](const PrimRef<R>& r, int a) {
+      Bin& bin = bins[a][bin_of(r, a)];
+      bin.count++;
+      bin.box.grow(r.box);
+    };
     if (all_axes) {
-      for (int i = begin; i < end; ++i) {
-        const PrimRef<R>& r = refs[static_cast<size_t>(i)];
-        for (int a = 0; a < 3; ++a) {
-          int b = std::min(n_bins - 1, static_cast<int>((r.centroid(a) - cbox.lo[a]) * scale[a]));
-          bins[a][b].count++;
-          bins[a][b].box.grow(r.box);
-        }
-      }
+      for (int i = begin; i < end; ++i)
+        for (int a = 0; a < 3; ++a) add(refs[static_cast<size_t>(i)], a);
     } else if (usable[widest]) {
-      const int a = widest;
-      for (int i = begin; i < end; ++i) {
-        const PrimRef<R>& r = refs[static_cast<size_t>(i)];
-        int b = std::min(n_bins - 1, static_cast<int>((r.centroid(a) - cbox.lo[a]) * scale[a]));
-        bins[a][b].count++;
-        bins[a][b].box.grow(r.box);
-      }
+      for (int i = begin; i < end; ++i) add(refs[static_cast<size_t>(i)], widest);
     }
     double best_cost = std::numeric_limits<double>::infinity();
     int best_axis = -1, best_bin = -1;
@@ -351,12 +349,8 @@ struct Builder {
     const int a = best_axis, split = best_bin;
     child_box[0] = child_box[1] = Box();
     for (int b = 0; b < n_bins; ++b) child_box[b <= split ? 0 : 1].grow(bins[a][b].box);
-    // Partition with the same bin computation as above, so each primitive goes where
-    // it was counted, growing each side's centroid bounds on the way.
-    const double lo = cbox.lo[a], s = scale[a];
-    auto left_side = [&](const PrimRef<R>& r) {
-      return std::min(n_bins - 1, static_cast<int>((r.centroid(a) - lo) * s)) <= split;
-    };
+    // Partition by bin_of, growing each side's centroid bounds on the way.
+    auto left_side = [&](const PrimRef<R>& r) { return bin_of(r, a) <= split; };
     child_cbox[0] = child_cbox[1] = Box();
     int i = begin, j = end - 1;
     for (;;) {
