@@ -30,7 +30,7 @@
 #include <thread>
 #include <vector>
 
-#include "bench.hpp"
+#include "bench_runner.hpp"
 
 namespace {
 

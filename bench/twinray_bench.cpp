@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "bench.hpp"
+#include "bench_runner.hpp"
 
 namespace {
 
@@ -54,7 +54,7 @@ int main(int argc, char** argv) {
       else if (a == "--height")
         height = std::atoi(value().c_str());
       else if (a == "--threads")
-        config.threads = std::atoi(value().c_str());
+        twinray::set_thread_count(std::max(0, std::atoi(value().c_str())));
       else if (a == "--bvh") {
         std::string v = value();
         config.bvh = v == "on" ? 1 : (v == "off" ? -1 : 0);

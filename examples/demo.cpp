@@ -10,15 +10,15 @@
 #include <twinray/io/png.hpp>
 #include <twinray/twinray.hpp>
 
-#include "demo_scene.hpp"
+#include <twinray/scene/demo_scene.hpp>
 
 template <class T>
 int run(twinray::Backend backend, int width, int height, const std::string& out_dir) {
-  for (const demo::Variant& v : demo::seed_variants()) {
-    demo::DemoSetup<T> d = demo::make_demo_scene<T>(width, height);
+  for (const twinray::demo::Variant& v : twinray::demo::seed_variants()) {
+    twinray::demo::DemoSetup<T> d = twinray::demo::make_demo_scene<T>(width, height);
     twinray::RenderOptions options;
     options.backend = backend;
-    demo::apply(v, d, options);
+    twinray::demo::apply(v, d, options);
     twinray::RenderInfo info;
     twinray::Image<T> image = twinray::render(d.scene, d.camera, options, &info);
     std::string path = out_dir + "/" + v.name + ".png";

@@ -7,7 +7,7 @@
 #include <string>
 
 #include <twinray/core/error.hpp>
-#include <twinray/core/validate.hpp>
+#include <twinray/scene/validate.hpp>
 #include <twinray/io/scene_json.hpp>
 
 #include "fuzz_limits.hpp"

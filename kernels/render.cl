@@ -26,54 +26,64 @@ static inline TrSceneRef tr_scene_ref(TR_SCENE_ARGS) {
   return s;
 }
 
-/* One work-item per pixel; the global size is padded to the work-group size. */
+/* One work-item per pixel of the rectangle params->rect_*; the global size is padded
+ * to the work-group size. The framebuffer holds the rectangle, row 0 at its top. */
 __kernel void tr_kernel_render(TR_SCENE_ARGS, __global real* out) {
-  int x = (int)get_global_id(0), y = (int)get_global_id(1);
-  if (x >= params->width || y >= params->height) return;
+  int i = (int)get_global_id(0), j = (int)get_global_id(1);
+  if (i >= params->rect_w || j >= params->rect_h) return;
   TrSceneRef s =
       tr_scene_ref(params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims);
-  tr_store_rgb(out, params->width, x, y, tr_render_pixel(&s, x, y));
+  tr_store_rgb(out, params->rect_w, i, j,
+               tr_render_pixel(&s, params->rect_x + i, params->rect_y + j));
 }
 
 __kernel void tr_kernel_aov(TR_SCENE_ARGS, __global real* out, int aov) {
-  int x = (int)get_global_id(0), y = (int)get_global_id(1);
-  if (x >= params->width || y >= params->height) return;
+  int i = (int)get_global_id(0), j = (int)get_global_id(1);
+  if (i >= params->rect_w || j >= params->rect_h) return;
   TrSceneRef s =
       tr_scene_ref(params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims);
-  tr_store_rgb(out, params->width, x, y, tr_render_aov(&s, x, y, aov));
+  tr_store_rgb(out, params->rect_w, i, j,
+               tr_render_aov(&s, params->rect_x + i, params->rect_y + j, aov));
 }
 
-/* Adaptive sampling (device/adaptive.h), three launches. First pass, every pixel:
- * p->spp samples; the mean goes to the framebuffer, sum and range to `stats`. */
+/* Adaptive sampling (device/adaptive.h), three launches. First pass, every pixel of
+ * the statistics window: p->spp samples; sum and range go to `stats`, and the mean to
+ * the framebuffer for the pixels of the rectangle. */
 __kernel void tr_kernel_adaptive_first(TR_SCENE_ARGS, __global real* out, __global real* stats) {
-  int x = (int)get_global_id(0), y = (int)get_global_id(1);
-  if (x >= params->width || y >= params->height) return;
+  int i = (int)get_global_id(0), j = (int)get_global_id(1);
+  if (i >= params->stats_w || j >= params->stats_h) return;
+  int x = params->stats_x + i, y = params->stats_y + j;
   TrSceneRef s =
       tr_scene_ref(params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims);
   vec3 range;
   vec3 sum = tr_adaptive_first(&s, x, y, &range);
-  tr_adaptive_store_stats(stats, params->width, x, y, sum, range);
-  tr_store_rgb(out, params->width, x, y, sum * (TR_R(1.0) / (real)params->spp));
+  tr_adaptive_store_stats(params, stats, x, y, sum, range);
+  int rx = x - params->rect_x, ry = y - params->rect_y;
+  if (rx >= 0 && ry >= 0 && rx < params->rect_w && ry < params->rect_h)
+    tr_store_rgb(out, params->rect_w, rx, ry, sum * (TR_R(1.0) / (real)params->spp));
 }
 
-/* Criterion, every pixel: 1 in `flags` where the pixel is refined. */
+/* Criterion, every pixel of the rectangle: 1 in `flags` where the pixel is refined. */
 __kernel void tr_kernel_adaptive_mark(__global const TrParams* params, __global const real* stats,
                                       __global int* flags) {
-  int x = (int)get_global_id(0), y = (int)get_global_id(1);
-  if (x >= params->width || y >= params->height) return;
-  flags[y * params->width + x] = tr_adaptive_refine_flag(params, stats, x, y);
+  int i = (int)get_global_id(0), j = (int)get_global_id(1);
+  if (i >= params->rect_w || j >= params->rect_h) return;
+  flags[j * params->rect_w + i] =
+      tr_adaptive_refine_flag(params, stats, params->rect_x + i, params->rect_y + j);
 }
 
-/* Second pass, one work-item per refined pixel (`pixels`: y * width + x, count of them). */
+/* Second pass, one work-item per refined pixel (`pixels`: j * rect_w + i inside the
+ * rectangle, `count` of them). */
 __kernel void tr_kernel_adaptive_refine(TR_SCENE_ARGS, __global real* out,
                                         __global const real* stats, __global const int* pixels,
                                         int count) {
-  int i = (int)get_global_id(0);
-  if (i >= count) return;
-  int x = pixels[i] % params->width, y = pixels[i] / params->width;
+  int k = (int)get_global_id(0);
+  if (k >= count) return;
+  int i = pixels[k] % params->rect_w, j = pixels[k] / params->rect_w;
   TrSceneRef s =
       tr_scene_ref(params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims);
-  tr_store_rgb(out, params->width, x, y, tr_adaptive_refine(&s, stats, x, y));
+  tr_store_rgb(out, params->rect_w, i, j,
+               tr_adaptive_refine(&s, stats, params->rect_x + i, params->rect_y + j));
 }
 
 /* Every sample position of every pixel, for tests of device/sampling.h:
@@ -91,7 +101,7 @@ __kernel void tr_kernel_sample_positions(__global real* out, int sampler, int se
 }
 
 /* sizeof of every buffer struct as the device compiler lays it out; the host compares
- * them with its own (tests/device/layout_test.cpp). */
+ * them with its own (tests/backend/opencl_program_test.cpp). */
 __kernel void tr_kernel_layout_sizes(__global int* out) {
   if (get_global_id(0) != 0) return;
   out[0] = (int)sizeof(TrSphere);

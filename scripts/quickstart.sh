@@ -28,7 +28,7 @@ fi
 # 2. Build.
 build="${TWINRAY_BUILD_DIR:-build}"
 jobs="$(nproc)"
-cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DTWINRAY_BUILD_BENCHMARKS=ON >/dev/null
 if [ "$mode" = demo ]; then
   cmake --build "$build" -j "$jobs" --target demo
   mkdir -p out/demo

@@ -5,6 +5,11 @@
 //   twinray::Scene<float> scene;  ...  twinray::Camera<float> camera;
 //   twinray::Image<float> image = twinray::render(scene, camera, twinray::RenderOptions{});
 //
+// A frame loop keeps one backend and packs the scene once (backend/backend.hpp):
+//   auto backend = twinray::make_backend<float>(options);
+//   backend->set_scene(twinray::share(twinray::pack_scene(scene)));
+//   twinray::Image<float> frame = backend->render({camera, scene.lights, options});
+//
 // This header is the core (scene, camera, CPU backend; GLM and threads only). Link
 // twinray::opencl for the OpenCL backend and twinray::io for PNG/PFM and scene files.
 #pragma once
@@ -13,7 +18,10 @@
 #include <twinray/core/error.hpp>
 #include <twinray/core/image.hpp>
 #include <twinray/core/options.hpp>
-#include <twinray/core/validate.hpp>
+#include <twinray/core/parallel.hpp>
+#include <twinray/scene/validate.hpp>
 #include <twinray/scene/camera.hpp>
 #include <twinray/scene/scene.hpp>
+#include <twinray/pack/pack.hpp>
+#include <twinray/backend/backend.hpp>
 #include <twinray/backend/render.hpp>

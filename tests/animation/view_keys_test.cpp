@@ -1,4 +1,4 @@
-// The viewer's key handling and scheduling (examples/twinray/view_controls.hpp),
+// The viewer's key handling and scheduling (apps/twinray/view_controls.hpp),
 // driven by synthetic key presses without a window: the code `twinray view` runs for
 // every SDL key event.
 #include <cmath>

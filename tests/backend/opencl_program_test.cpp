@@ -8,7 +8,8 @@
 #include <twinray/twinray.hpp>
 
 #include "backend/parity_util.hpp"
-#include "demo_scene.hpp"
+#include "support/packing.hpp"
+#include <twinray/scene/demo_scene.hpp>
 
 using namespace twinray;
 
@@ -37,15 +38,15 @@ TEST_CASE_TEMPLATE("a spheres-only scene gets a kernel without triangle and plan
   Camera<T> cam;
   cam.width = 64, cam.height = 48;
   RenderOptions options;
-  PackedScene<T> ps = pack(scene, cam, options);
-  CHECK((ps.features & TR_F_SPHERES) != 0);
-  CHECK((ps.features & (TR_F_TRIANGLES | TR_F_PLANES)) == 0);
-  CHECK((ps.features & TR_F_GLAZE) != 0);
+  const unsigned features = test_support::pack(scene, cam, options).frame.features;
+  CHECK((features & TR_F_SPHERES) != 0);
+  CHECK((features & (TR_F_TRIANGLES | TR_F_PLANES)) == 0);
+  CHECK((features & TR_F_GLAZE) != 0);
 
   opencl::Context& ctx = opencl::shared_context(-1);
-  std::string specialized = opencl::build_options(ctx.info(), ps.features, sizeof(T) == 8);
+  std::string specialized = opencl::build_options(ctx.info(), features, sizeof(T) == 8);
   char mask[16];
-  std::snprintf(mask, sizeof mask, "0x%03xu", ps.features);
+  std::snprintf(mask, sizeof mask, "0x%03xu", features);
   CHECK(specialized.find(std::string("-DTR_FEATURES=") + mask) != std::string::npos);
   // Neither the triangle nor the plane bit is in the mask the program is built with:
   // every TR_HAS(TR_F_TRIANGLES) / TR_HAS(TR_F_PLANES) block is dead code in it.
@@ -58,7 +59,7 @@ TEST_CASE_TEMPLATE("a spheres-only scene gets a kernel without triangle and plan
   Image<T> spec = render(scene, cam, options, &spec_info);
   options.specialize = false;
   Image<T> generic = render(scene, cam, options, &generic_info);
-  CHECK(spec_info.features == ps.features);
+  CHECK(spec_info.features == features);
   CHECK(generic_info.features == TR_F_ALL);
   CHECK(test::differing_values(spec, generic) == 0);
   // And the CPU's specialized and generic instantiations give the same bits too.
@@ -78,26 +79,32 @@ TEST_CASE_TEMPLATE("buffer structs have the same size in the kernel as on the ho
   CHECK(device == host);
 }
 
-TEST_CASE("programs are cached in the process and on disk; unchanged buffers are not re-sent") {
-  auto d = demo::make_demo_scene<float>(48, 32);
+TEST_CASE("programs are cached in the process and on disk; the scene is sent once") {
+  auto d = twinray::demo::make_demo_scene<float>(48, 32);
   RenderOptions options;
   options.backend = Backend::OpenCL;
   options.spp = 2;  // a mask no other test uses first in this process
+  opencl::OpenCLBackend<float> backend;
+  backend.set_scene(share(pack_scene(d.scene)));
   RenderInfo first, second;
-  Image<float> a = render(d.scene, d.camera, options, &first);
-  opencl::Context& ctx = opencl::shared_context(-1);
-  long long uploads = ctx.uploads();
-  Image<float> b = render(d.scene, d.camera, options, &second);
+  Image<float> a = backend.render({d.camera, d.scene.lights, options, {}}, &first);
+  CHECK(first.scene_uploaded);
+  Image<float> b = backend.render({d.camera, d.scene.lights, options, {}}, &second);
   CHECK(second.program_cached);
   CHECK(second.build_ms == 0);
-  CHECK(ctx.uploads() == uploads);  // same scene, same frame: nothing re-uploaded
+  CHECK_FALSE(second.scene_uploaded);
   CHECK(test::differing_values(a, b) == 0);
-  // Moving the camera re-sends the per-frame parameters only, and reuses the program.
+  // Moving the camera and a light sends the frame's parameters and lights only, and
+  // reuses the program.
   d.camera.position.x += 0.5f;
+  d.scene.lights[0].position.y += 0.25f;
   RenderInfo third;
-  render(d.scene, d.camera, options, &third);
+  Image<float> c = backend.render({d.camera, d.scene.lights, options, {}}, &third);
   CHECK(third.build_ms == 0);
-  CHECK(ctx.uploads() == uploads + 1);
+  CHECK_FALSE(third.scene_uploaded);
+  CHECK(backend.scene_uploads() == 1);
+  // ... and renders what the one-call render() renders from scratch.
+  CHECK(test::differing_values(c, render(d.scene, d.camera, options)) == 0);
   // The binary was saved after the first launch, keyed on device, driver, source and
   // options, under TWINRAY_CACHE_DIR.
   const char* dir = std::getenv("TWINRAY_CACHE_DIR");

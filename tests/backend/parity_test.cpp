@@ -7,7 +7,7 @@
 #include <twinray/twinray.hpp>
 
 #include "backend/parity_util.hpp"
-#include "demo_scene.hpp"
+#include <twinray/scene/demo_scene.hpp>
 
 using namespace twinray;
 
@@ -16,11 +16,11 @@ constexpr int kW = 96, kH = 72;  // small: the suite stays fast; every code path
 }
 
 TEST_CASE_TEMPLATE("parity: the demo and each of the seed's comparisons", T, float, double) {
-  for (const demo::Variant& v : demo::seed_variants()) {
+  for (const twinray::demo::Variant& v : twinray::demo::seed_variants()) {
     CAPTURE(v.name);
-    auto d = demo::make_demo_scene<T>(kW, kH);
+    auto d = twinray::demo::make_demo_scene<T>(kW, kH);
     RenderOptions options;
-    demo::apply(v, d, options);
+    twinray::demo::apply(v, d, options);
     test::check_parity(d.scene, d.camera, options);
   }
 }
@@ -28,7 +28,7 @@ TEST_CASE_TEMPLATE("parity: the demo and each of the seed's comparisons", T, flo
 TEST_CASE_TEMPLATE("parity: reflection depth 1 and 8, orthographic glazed", T, float, double) {
   for (int depth : {1, 2, 8}) {
     CAPTURE(depth);
-    auto d = demo::make_demo_scene<T>(kW, kH);
+    auto d = twinray::demo::make_demo_scene<T>(kW, kH);
     for (auto& m : d.scene.materials) m.glaze = T(0.5);
     RenderOptions options;
     options.max_depth = depth;
@@ -41,7 +41,7 @@ TEST_CASE_TEMPLATE("parity: reflection depth 1 and 8, orthographic glazed", T, f
 TEST_CASE_TEMPLATE("parity: several samples per pixel", T, float, double) {
   for (int spp : {2, 4, 9}) {
     CAPTURE(spp);
-    auto d = demo::make_demo_scene<T>(kW, kH);
+    auto d = twinray::demo::make_demo_scene<T>(kW, kH);
     RenderOptions options;
     options.spp = spp;
     test::check_parity(d.scene, d.camera, options);
@@ -87,7 +87,7 @@ TEST_CASE_TEMPLATE("parity: a mesh, three colored lights, a background, no shado
 }
 
 TEST_CASE_TEMPLATE("parity: depth, normal and object AOVs", T, float, double) {
-  auto d = demo::make_demo_scene<T>(kW, kH);
+  auto d = twinray::demo::make_demo_scene<T>(kW, kH);
   for (Output out : {Output::Depth, Output::Normal, Output::ObjectIndex}) {
     RenderOptions options;
     options.output = out;

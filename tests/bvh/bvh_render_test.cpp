@@ -8,15 +8,22 @@
 #include <twinray/twinray.hpp>
 
 #include "bvh_scenes.hpp"
+#include "support/packing.hpp"
 
 namespace {
 
+// A packed scene with what renders it.
 template <class T>
-twinray::Image<T> render(const twinray::PackedScene<T>& ps, twinray::Backend backend) {
+struct Case {
+  twinray::PackedScene<T> ps;
+  twinray::Camera<T> camera;
+  std::vector<twinray::PointLight<T>> lights;
   twinray::RenderOptions options;
-  options.backend = backend;
-  options.log = [](const std::string&) {};
-  return twinray::render_packed(ps, ps.features, options);
+};
+
+template <class T>
+twinray::Image<T> render(const Case<T>& c, twinray::Backend backend) {
+  return test_support::render_packed(c.ps, c.camera, c.lights, c.options, backend);
 }
 
 template <class T>
@@ -26,14 +33,26 @@ bool same_bits(const twinray::Image<T>& a, const twinray::Image<T>& b) {
 }
 
 template <class T>
-twinray::PackedScene<T> packed(int n_spheres, int n_triangles, uint32_t seed, int max_depth = 4) {
-  twinray::RenderOptions options;
-  options.max_depth = max_depth;
-  auto ps = twinray::pack(bvh_test::random_scene<T>(n_spheres, n_triangles, seed),
-                          bvh_test::test_camera<T>(64, 48), options);
-  twinray::bvh::build(ps);
-  REQUIRE((ps.features & TR_F_BVH) != 0u);
-  return ps;
+Case<T> packed(const twinray::Scene<T>& scene, int max_depth = 4) {
+  Case<T> c;
+  c.options.max_depth = max_depth;
+  c.camera = bvh_test::test_camera<T>(64, 48);
+  c.lights = scene.lights;
+  c.ps = twinray::pack_scene(scene, twinray::BvhPolicy::Always);
+  REQUIRE((c.ps.features & TR_F_BVH) != 0u);
+  return c;
+}
+
+template <class T>
+Case<T> packed(int n_spheres, int n_triangles, uint32_t seed, int max_depth = 4) {
+  return packed(bvh_test::random_scene<T>(n_spheres, n_triangles, seed), max_depth);
+}
+
+template <class T>
+Case<T> without_bvh(Case<T> c) {
+  c.ps = test_support::without_bvh(c.ps);
+  REQUIRE((c.ps.features & TR_F_BVH) == 0u);
+  return c;
 }
 
 bool have_opencl() {
@@ -48,9 +67,7 @@ bool have_opencl() {
 
 TEST_CASE_TEMPLATE("bvh: CPU images with and without the BVH are bit-identical", T, float, double) {
   auto with = packed<T>(150, 150, 21u);
-  auto without = with;
-  twinray::bvh::strip(without);
-  REQUIRE((without.features & TR_F_BVH) == 0u);
+  auto without = without_bvh(with);
   CHECK(same_bits(render(with, twinray::Backend::Cpu), render(without, twinray::Backend::Cpu)));
 }
 
@@ -61,8 +78,7 @@ TEST_CASE_TEMPLATE("bvh: OpenCL images with and without the BVH are bit-identica
     return;
   }
   auto with = packed<T>(150, 150, 22u);
-  auto without = with;
-  twinray::bvh::strip(without);
+  auto without = without_bvh(with);
   CHECK(
       same_bits(render(with, twinray::Backend::OpenCL), render(without, twinray::Backend::OpenCL)));
 }
@@ -91,9 +107,7 @@ TEST_CASE_TEMPLATE("bvh: CPU and OpenCL BVH renders are bit-identical", T, float
     }
   mesh.material = 1;
   grid.add(mesh);
-  twinray::RenderOptions options;
-  auto mesh_ps = twinray::pack(grid, bvh_test::test_camera<T>(64, 48), options);
-  REQUIRE((mesh_ps.features & TR_F_BVH) != 0u);
+  auto mesh_ps = packed(grid);
   for (const auto* p : {&ps, &mesh_ps}) {
     auto cpu = render(*p, twinray::Backend::Cpu);
     auto ocl = render(*p, twinray::Backend::OpenCL);

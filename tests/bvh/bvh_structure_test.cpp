@@ -12,6 +12,7 @@
 #include <twinray/twinray.hpp>
 
 #include "bvh_scenes.hpp"
+#include "support/packing.hpp"
 
 namespace {
 
@@ -23,10 +24,9 @@ using K = typename Code<T>::template Kernel<TR_F_ALL>;
 
 template <class T>
 PackedScene<T> pack_with_bvh(const twinray::Scene<T>& scene, int threads = 0) {
-  twinray::RenderOptions options;
-  options.threads = threads;
-  PackedScene<T> ps = twinray::pack(scene, bvh_test::test_camera<T>(32, 24), options);
-  twinray::bvh::build(ps, threads);
+  twinray::set_thread_count(threads);
+  PackedScene<T> ps = twinray::pack_scene(scene, twinray::BvhPolicy::Always);
+  twinray::set_thread_count(0);
   return ps;
 }
 
@@ -65,7 +65,7 @@ void check_structure(const PackedScene<T>& ps) {
   int n = static_cast<int>(ps.spheres.size() + ps.triangles.size());
   REQUIRE(!nodes.empty());
   REQUIRE(static_cast<int>(ps.bvh_prims.size()) == n);
-  CHECK(ps.params.n_bvh_nodes == static_cast<int>(nodes.size()));
+  CHECK(ps.summary().n_bvh_nodes == static_cast<int>(nodes.size()));
   CHECK((ps.features & TR_F_BVH) != 0u);
   std::vector<int> seen_node(nodes.size(), 0), seen_prim(static_cast<size_t>(n), 0);
   std::vector<std::pair<int, int>> todo{{0, 0}};
@@ -113,10 +113,14 @@ void check_structure(const PackedScene<T>& ps) {
 // the linear loops.
 template <class T>
 void check_traversal(PackedScene<T> ps, int n_rays, uint32_t seed) {
-  PackedScene<T> linear = ps;
-  twinray::bvh::strip(linear);
-  auto sb = ps.ref();
-  auto sl = linear.ref();
+  PackedScene<T> linear = test_support::without_bvh(ps);
+  auto camera = bvh_test::test_camera<T>(32, 24);
+  auto scene = bvh_test::random_scene<T>(0, 0, 1u);  // lights only
+  twinray::RenderOptions options;
+  auto frame_b = twinray::pack_frame(ps.summary(), {camera, scene.lights, options, {}});
+  auto frame_l = twinray::pack_frame(linear.summary(), {camera, scene.lights, options, {}});
+  auto sb = frame_b.ref(ps);
+  auto sl = frame_l.ref(linear);
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   int hits = 0, mismatches = 0, any_mismatches = 0;
@@ -197,11 +201,11 @@ TEST_CASE("bvh: pack builds one from the threshold on, and not below it") {
   twinray::RenderOptions options;
   auto camera = bvh_test::test_camera<float>(8, 8);
   auto has_bvh = [&](int n_spheres, int n_triangles) {
-    auto ps =
-        twinray::pack(bvh_test::random_scene<float>(n_spheres, n_triangles, 1u), camera, options);
-    CHECK(ps.params.n_bvh_nodes == static_cast<int>(ps.bvh_nodes.size()));
-    CHECK(((ps.features & TR_F_BVH) != 0u) == !ps.bvh_nodes.empty());
-    return !ps.bvh_nodes.empty();
+    auto ps = test_support::pack(bvh_test::random_scene<float>(n_spheres, n_triangles, 1u), camera,
+                                 options);
+    CHECK(ps.params().n_bvh_nodes == static_cast<int>(ps.scene.bvh_nodes.size()));
+    CHECK(((ps.frame.features & TR_F_BVH) != 0u) == !ps.scene.bvh_nodes.empty());
+    return !ps.scene.bvh_nodes.empty();
   };
   const int w = static_cast<int>(twinray::bvh::kMinWeight);
   const int tw = twinray::bvh::kTriangleWeight;

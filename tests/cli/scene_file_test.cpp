@@ -7,7 +7,7 @@
 
 #include <twinray/io/scene_json.hpp>
 
-#include "demo_scene.hpp"
+#include <twinray/scene/demo_scene.hpp>
 
 namespace {
 
@@ -75,10 +75,10 @@ void check_equal(const twinray::Object<T>& a, const twinray::Object<T>& b) {
 
 }  // namespace
 
-TEST_CASE_TEMPLATE("demo.json holds exactly the scene of examples/demo_scene.hpp", T, float,
+TEST_CASE_TEMPLATE("demo.json holds exactly the scene of include/twinray/scene/demo_scene.hpp", T, float,
                    double) {
   twinray::io::SceneFile<T> f = twinray::io::load_scene<T>(kScenes + "/demo.json");
-  demo::DemoSetup<T> d = demo::make_demo_scene<T>(400, 400);
+  twinray::demo::DemoSetup<T> d = twinray::demo::make_demo_scene<T>(400, 400);
   REQUIRE(f.scene.materials.size() == d.scene.materials.size());
   for (size_t i = 0; i < d.scene.materials.size(); ++i)
     check_equal(f.scene.materials[i], d.scene.materials[i]);

@@ -2,7 +2,7 @@
 // OpenCL kernel compiles), in the generic instantiation with every feature compiled in.
 #pragma once
 
-#include <twinray/core/device_code.hpp>
+#include <twinray/device/code.hpp>
 
 namespace test {
 

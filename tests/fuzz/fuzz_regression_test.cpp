@@ -11,7 +11,7 @@
 #include <vector>
 
 #include <twinray/core/error.hpp>
-#include <twinray/core/validate.hpp>
+#include <twinray/scene/validate.hpp>
 #include <twinray/io/obj_mesh.hpp>
 #include <twinray/io/scene_json.hpp>
 

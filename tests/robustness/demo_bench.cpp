@@ -1,4 +1,4 @@
-// Demo-scene throughput on the CPU backend (issue 4, item 4): renders the seed's demo
+// Demo-scene throughput on the CPU backend: renders the seed's demo
 // scene several times and prints the median render time and rays per second.
 //
 //   robustness_demo_bench [--width W] [--height H] [--runs N] [--double] [--threads T]
@@ -17,35 +17,38 @@
 
 #include <twinray/twinray.hpp>
 
-#include "demo_scene.hpp"
+#include <twinray/scene/demo_scene.hpp>
+
+#include "support/packing.hpp"
 
 namespace {
 
 template <class T>
-long long count_rays(const twinray::PackedScene<T>& ps) {
+long long count_rays(const test_support::Packed<T>& ps) {
   using K = typename twinray::device::Code<T>::template Kernel<TR_F_ALL>;
   auto s = ps.ref();
-  const auto& p = ps.params;
+  const auto& p = ps.params();
   long long rays = 0;
   for (int y = 0; y < p.height; ++y)
     for (int x = 0; x < p.width; ++x)
       for (int i = 0; i < p.spp; ++i) {
         auto smp = K::tr_sample_position(p.sampler, i, p.spp, x, y);
         auto ray = K::tr_camera_ray(&p, x, y, smp);
-        int segments = (ps.features & TR_F_GLAZE) ? p.max_depth : 1;
+        int segments = (ps.frame.features & TR_F_GLAZE) ? p.max_depth : 1;
         for (int depth = 0; depth < segments; ++depth) {
           ++rays;
           auto hit = K::tr_no_hit();
           if (!K::tr_closest_hit(&s, ray, T(INFINITY), &hit)) break;
           glm::vec<3, T> n = glm::dot(hit.n, ray.d) > T(0) ? -hit.n : hit.n;
-          if (ps.features & TR_F_SHADOWS)
-            for (const auto& l : ps.lights) {
+          if (ps.frame.features & TR_F_SHADOWS)
+            for (const auto& l : ps.frame.lights) {
               glm::vec<3, T> to_light = glm::vec<3, T>(l.px, l.py, l.pz) - hit.p;
               T d2 = K::tr_dot(to_light, to_light);
               if (!(d2 > T(0))) continue;
               if (K::tr_dot(n, to_light * (T(1) / std::sqrt(d2))) > T(0)) ++rays;
             }
-          if (!(ps.features & TR_F_GLAZE) || !(ps.materials[hit.material].glaze > T(0))) break;
+          if (!(ps.frame.features & TR_F_GLAZE) || !(ps.scene.materials[hit.material].glaze > T(0)))
+            break;
           glm::vec<3, T> m = K::tr_normalize(ray.d - hit.n * (T(2) * K::tr_dot(ray.d, hit.n)));
           ray.o = K::tr_offset_ray_origin(hit.p, hit.perr, hit.n, m);
           ray.d = m;
@@ -56,11 +59,11 @@ long long count_rays(const twinray::PackedScene<T>& ps) {
 
 template <class T>
 int run(int width, int height, int runs, int threads, bool count) {
-  demo::DemoSetup<T> d = demo::make_demo_scene<T>(width, height);
+  twinray::demo::DemoSetup<T> d = twinray::demo::make_demo_scene<T>(width, height);
   twinray::RenderOptions options;
   options.backend = twinray::Backend::Cpu;
-  options.threads = threads;
-  twinray::PackedScene<T> ps = twinray::pack(d.scene, d.camera, options);
+  twinray::set_thread_count(threads);
+  test_support::Packed<T> ps = test_support::pack(d.scene, d.camera, options);
   long long rays = count ? count_rays(ps) : 0;
   std::vector<double> ms;
   twinray::render(d.scene, d.camera, options);  // warm-up
@@ -72,8 +75,7 @@ int run(int width, int height, int runs, int threads, bool count) {
   std::sort(ms.begin(), ms.end());
   double median = ms[ms.size() / 2];
   std::cout << "demo " << width << "x" << height << " " << twinray::device::Code<T>::name
-            << ", CPU backend, " << twinray::cpu::thread_count(threads) << " threads, " << runs
-            << " runs\n"
+            << ", CPU backend, " << twinray::thread_count() << " threads, " << runs << " runs\n"
             << "  render ms: median " << median << ", min " << ms.front() << ", max " << ms.back()
             << "\n"
             << "  rays per frame: " << rays << " (" << width * height << " camera rays)\n"

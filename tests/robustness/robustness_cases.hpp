@@ -5,7 +5,7 @@
 // Every case is a function `Figures case_x<T>(Ctx&)` that renders through
 // twinray::render() on ctx.backend (and, when ctx.check_parity, once more on the other
 // backend, counting pixels whose bits differ), or calls the device functions directly
-// (core/device_code.hpp) where it needs single rays. References are computed in long
+// (device/code.hpp) where it needs single rays. References are computed in long
 // precision from the very same float/double inputs the renderer saw, so they measure the
 // renderer's arithmetic, not the rounding of the scene description. The reference type
 // is binary128 (__float128, libquadmath): x87 long double carries only 11 bits more than
@@ -26,6 +26,8 @@
 #include <quadmath.h>
 
 #include <twinray/twinray.hpp>
+
+#include "support/packing.hpp"
 
 namespace rb {
 
@@ -304,7 +306,7 @@ template <class T>
 typename twinray::device::Code<T>::Params params_of(const twinray::Scene<T>& scene,
                                                     const twinray::Camera<T>& cam) {
   twinray::RenderOptions o;
-  return twinray::pack(scene, cam, o).params;
+  return test_support::pack(scene, cam, o).params();
 }
 
 template <class T>
@@ -529,7 +531,7 @@ Figures case_watertight_closed(Ctx& ctx, V3<T> center, T radius, bool single_ray
     cam.position = center + V3<T>(0, 0, 1) * radius;
     cam.look_at = center;
     cam.up = V3<T>(0, 1, 0);
-    auto ps = twinray::pack(scene, cam, o);
+    auto ps = test_support::pack(scene, cam, o);
     auto sref = ps.ref();
     std::vector<V3<T>> targets = mesh.vertices;
     for (auto& t : mesh.triangles)
@@ -538,7 +540,7 @@ Figures case_watertight_closed(Ctx& ctx, V3<T> center, T radius, bool single_ray
     V3<T> origins[2] = {center, center + V3<T>(T(0.31), T(-0.27), T(0.19)) * radius};
     for (const V3<T>& from : origins)
       for (const V3<T>& target : targets) {
-        decltype(K::tr_camera_ray(&ps.params, 0, 0, K::tr_sample_position(0, 0, 1, 0, 0))) ray;
+        decltype(K::tr_camera_ray(&ps.params(), 0, 0, K::tr_sample_position(0, 0, 1, 0, 0))) ray;
         ray.o = from;
         ray.d = K::tr_normalize(target - from);
         auto hit = K::tr_no_hit();
@@ -771,14 +773,14 @@ Figures case_degenerate(Ctx& ctx, double scale) {
   f.samples += (long long)obj.width * obj.height;
   // Single rays along the needles' long edges and through m, from a point in front.
   using K = typename twinray::device::Code<T>::template Kernel<TR_F_ALL>;
-  auto ps = twinray::pack(scene, cam, twinray::RenderOptions{});
+  auto ps = test_support::pack(scene, cam, twinray::RenderOptions{});
   auto sref = ps.ref();
   V3<T> from = V3<T>(T(0.1), T(0.55), T(1)) * s;
   for (int k = 1; k < 200; ++k) {
     T w = T(0.05) + T(0.9) * T(k) / T(200);  // away from the open boundary at a and b
     V3<T> targets[3] = {a + (m - a) * w, b + (m - b) * w, a + (b - a) * w};
     for (const V3<T>& target : targets) {
-      decltype(K::tr_camera_ray(&ps.params, 0, 0, K::tr_sample_position(0, 0, 1, 0, 0))) ray;
+      decltype(K::tr_camera_ray(&ps.params(), 0, 0, K::tr_sample_position(0, 0, 1, 0, 0))) ray;
       ray.o = from;
       ray.d = K::tr_normalize(target - from);
       // Where the rounded ray really crosses the square's plane (binary128): only rays

@@ -9,7 +9,7 @@
 
 #include <twinray/twinray.hpp>
 
-#include "demo_scene.hpp"
+#include <twinray/scene/demo_scene.hpp>
 
 using namespace twinray;
 
@@ -18,7 +18,7 @@ namespace {
 constexpr int kW = 64, kH = 48;
 
 template <class T>
-Image<T> render_on(const demo::DemoSetup<T>& d, RenderOptions o, Backend b,
+Image<T> render_on(const twinray::demo::DemoSetup<T>& d, RenderOptions o, Backend b,
                    RenderInfo* info = nullptr) {
   o.backend = b;
   o.log = [](const std::string&) {};
@@ -41,7 +41,7 @@ size_t differing_values(const Image<T>& a, const Image<T>& b) {
 
 TEST_CASE_TEMPLATE("adaptive: every pixel is the uniform render at spp or at adaptive_spp", T,
                    float, double) {
-  auto d = demo::make_demo_scene<T>(kW, kH);
+  auto d = twinray::demo::make_demo_scene<T>(kW, kH);
   for (Sampler sampler : {Sampler::Grid, Sampler::Stratified, Sampler::R2}) {
     CAPTURE(to_string(sampler));
     RenderOptions o;
@@ -68,12 +68,12 @@ TEST_CASE_TEMPLATE("adaptive: every pixel is the uniform render at spp or at ada
     CHECK(info.refined_pixels < kW * kH / 2);
     CHECK(refined <= info.refined_pixels);
     CHECK(refined > info.refined_pixels / 2);  // refining changed those pixels
-    CHECK(info.samples == adaptive::samples_traced(o, kW * kH, info.refined_pixels));
+    CHECK(info.samples == sample_plan::samples_traced(o, kW * kH, info.refined_pixels));
   }
 }
 
 TEST_CASE("adaptive: threshold 0 refines every pixel that is not flat; a huge one none") {
-  auto d = demo::make_demo_scene<float>(kW, kH);
+  auto d = twinray::demo::make_demo_scene<float>(kW, kH);
   RenderOptions o;
   o.sampler = Sampler::R2;
   o.spp = 2;
@@ -99,7 +99,7 @@ TEST_CASE("adaptive: threshold 0 refines every pixel that is not flat; a huge on
 }
 
 TEST_CASE("adaptive: settings that make no sense are refused") {
-  auto d = demo::make_demo_scene<float>(8, 8);
+  auto d = twinray::demo::make_demo_scene<float>(8, 8);
   RenderOptions o;
   o.spp = 4;
   o.adaptive_spp = 4;  // not more than spp
@@ -111,7 +111,7 @@ TEST_CASE("adaptive: settings that make no sense are refused") {
 
 #ifdef TWINRAY_WITH_OPENCL
 TEST_CASE_TEMPLATE("adaptive: the OpenCL backend gives the CPU's bits", T, float, double) {
-  auto d = demo::make_demo_scene<T>(kW, kH);
+  auto d = twinray::demo::make_demo_scene<T>(kW, kH);
   for (Sampler sampler : {Sampler::Grid, Sampler::Stratified, Sampler::R2})
     for (bool glazed_everything : {false, true}) {
       CAPTURE(to_string(sampler));

@@ -9,10 +9,10 @@
 #include <utility>
 #include <vector>
 
-#include <twinray/core/device_code.hpp>
+#include <twinray/device/code.hpp>
 #include <twinray/core/options.hpp>
 #ifdef TWINRAY_WITH_OPENCL
-#include <twinray/backend/opencl.hpp>
+#include <twinray/backend/opencl/buffers.hpp>
 #endif
 
 using namespace twinray;
@@ -144,12 +144,14 @@ std::vector<T> device_positions(int sampler, int seed, int spp, int width, int h
   bool built = false;
   double ms = 0;
   auto& entry =
-      ctx.program(opencl::build_options(ctx.info(), TR_F_ALL, sizeof(T) == 8), &built, &ms);
+      ctx.programs().get(opencl::build_options(ctx.info(), TR_F_ALL, sizeof(T) == 8), &built, &ms);
   cl_int err = CL_SUCCESS;
   cl_kernel kernel = clCreateKernel(entry.program, "tr_kernel_sample_positions", &err);
   REQUIRE(err == CL_SUCCESS);
   std::vector<T> out(static_cast<size_t>(width) * height * spp * 2);
-  cl_mem buffer = ctx.scratch("test_positions", out.size() * sizeof(T));
+  opencl::Buffer positions;
+  positions.reserve(ctx.context(), CL_MEM_READ_WRITE, out.size() * sizeof(T), "clCreateBuffer");
+  cl_mem buffer = positions.mem();
   clSetKernelArg(kernel, 0, sizeof buffer, &buffer);
   clSetKernelArg(kernel, 1, sizeof(int), &sampler);
   clSetKernelArg(kernel, 2, sizeof(int), &seed);

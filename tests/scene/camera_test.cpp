@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-#include <twinray/core/device_code.hpp>
+#include <twinray/device/code.hpp>
 #include <twinray/scene/camera.hpp>
 
 using twinray::Camera;

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <string>
 
-#include <twinray/core/validate.hpp>
+#include <twinray/scene/validate.hpp>
 
 using namespace twinray;
 

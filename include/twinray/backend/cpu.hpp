@@ -1,28 +1,29 @@
-// The CPU backend: runs the shared device code (core/device_code.hpp) over 16x16
-// tiles handed out dynamically to a pool of threads, all cores by default. No
-// allocation or locking per pixel.
+// The CPU backend: runs the shared device code (device/code.hpp) over 16x16 tiles of
+// the requested rectangle, handed out by parallel_for (core/parallel.hpp). No
+// allocation or locking per pixel; the scene's arrays are read in place.
 //
-// The device code is a template on the Features mask; render_packed() turns the
-// run-time mask into a template argument once per render. Each bit in
+// The device code is a template on the Features mask; render() turns the run-time mask
+// into a template argument once per render. Each bit in
 // TWINRAY_CPU_SPECIALIZED_FEATURES doubles the instantiations (2^n per precision, each
-// about 0.7 s of g++ -O3 in every translation unit that calls render()); the other bits
-// are compiled in everywhere and switched by TrParams::features at run time, exactly as
-// in the generic OpenCL program. The default takes the four bits that remove the most
+// about 0.7 s of g++ -O3 in every translation unit that renders); the other bits are
+// compiled in everywhere and switched by TrParams::features at run time, exactly as in
+// the generic OpenCL program. The default takes the four bits that remove the most
 // work: a scene without triangles or planes, with shadows off, or with nothing glazed
 // runs none of that code. Define the macro (the same in every translation unit) to
 // choose others.
 #pragma once
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
+#include <memory>
+#include <string>
 #include <thread>
+#include <type_traits>
 #include <vector>
 
-#include <twinray/core/device_code.hpp>
-#include <twinray/core/image.hpp>
-#include <twinray/core/options.hpp>
-#include <twinray/core/pack.hpp>
+#include <twinray/backend/backend.hpp>
+#include <twinray/core/parallel.hpp>
+#include <twinray/device/code.hpp>
 
 namespace twinray {
 namespace cpu {
@@ -37,87 +38,131 @@ constexpr unsigned compiled_features(unsigned needed) {
   return (needed & kHostSpecializedFeatures) | (TR_F_ALL & ~kHostSpecializedFeatures);
 }
 
-inline int thread_count(int requested) {
-  if (requested > 0) return requested;
-  unsigned n = std::thread::hardware_concurrency();
-  return n > 0 ? static_cast<int>(n) : 1;
-}
-
-template <class T, unsigned Features>
-void render_tiles(const PackedScene<T>& ps, Image<T>& image, int threads, Output output) {
-  using Kernel = typename device::Code<T>::template Kernel<Features>;
-  constexpr int kTile = 16;
-  const int width = ps.params.width, height = ps.params.height;
-  const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
-  const int n_tiles = tiles_x * tiles_y;
-  const typename device::Code<T>::SceneRef scene = ps.ref();
-  const int aov = output == Output::Depth    ? TR_AOV_DEPTH
-                  : output == Output::Normal ? TR_AOV_NORMAL
-                                             : TR_AOV_OBJECT;
-  std::atomic<int> next_tile{0};
-  auto worker = [&]() {
-    for (int tile; (tile = next_tile.fetch_add(1, std::memory_order_relaxed)) < n_tiles;) {
-      int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
-      int x1 = std::min(x0 + kTile, width), y1 = std::min(y0 + kTile, height);
-      for (int y = y0; y < y1; ++y)
-        for (int x = x0; x < x1; ++x) {
-          auto c = output == Output::Shaded ? Kernel::tr_render_pixel(&scene, x, y)
-                                            : Kernel::tr_render_aov(&scene, x, y, aov);
-          Kernel::tr_store_rgb(image.rgb.data(), width, x, y, c);
-        }
-    }
-  };
-  int n = std::min(thread_count(threads), n_tiles);
-  std::vector<std::thread> pool;
-  for (int i = 1; i < n; ++i) pool.emplace_back(worker);
-  worker();
-  for (std::thread& t : pool) t.join();
-}
-
-namespace detail {
-// Walks the specialized bits from the lowest up, turning each run-time bit into a
-// template argument; 2^popcount(kHostSpecializedFeatures) instantiations in all.
-template <class T, unsigned Remaining, unsigned Fixed>
-void dispatch(unsigned needed, const PackedScene<T>& ps, Image<T>& image, int threads,
-              Output output) {
+// Calls f(std::integral_constant<unsigned, Features>) with the instantiation for a
+// render that needs `needed`: walks the specialized bits from the lowest up, turning
+// each run-time bit into a template argument.
+template <unsigned Remaining = kHostSpecializedFeatures, unsigned Fixed = 0u, class F>
+void with_features(unsigned needed, F&& f) {
   if constexpr (Remaining == 0u) {
-    render_tiles<T, Fixed | (TR_F_ALL & ~kHostSpecializedFeatures)>(ps, image, threads, output);
+    f(std::integral_constant<unsigned, Fixed | (TR_F_ALL & ~kHostSpecializedFeatures)>());
   } else {
     constexpr unsigned bit = Remaining & (~Remaining + 1u);
     if (needed & bit)
-      dispatch<T, Remaining & ~bit, Fixed | bit>(needed, ps, image, threads, output);
+      with_features<Remaining & ~bit, Fixed | bit>(needed, f);
     else
-      dispatch<T, Remaining & ~bit, Fixed>(needed, ps, image, threads, output);
+      with_features<Remaining & ~bit, Fixed>(needed, f);
   }
 }
-}  // namespace detail
 
-// Renders a packed scene. `features`: the mask to compile for; TR_F_ALL gives the
-// generic instantiation (everything compiled in, switched at run time).
-template <class T>
-Image<T> render_packed(const PackedScene<T>& ps, unsigned features, int threads, Output output) {
-  Image<T> image(ps.params.width, ps.params.height);
-  detail::dispatch<T, kHostSpecializedFeatures, 0u>(features, ps, image, threads, output);
-  return image;
+// Calls pixel(x, y) for every pixel of the rectangle (frame coordinates), in 16x16
+// tiles handed out to the threads.
+template <class F>
+void for_each_pixel(int x0, int y0, int width, int height, F&& pixel) {
+  constexpr int kTile = 16;
+  const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
+  parallel_for(tiles_x * tiles_y, 1, [&](int tile) {
+    const int tx = (tile % tiles_x) * kTile, ty = (tile / tiles_x) * kTile;
+    for (int y = y0 + ty; y < y0 + std::min(ty + kTile, height); ++y)
+      for (int x = x0 + tx; x < x0 + std::min(tx + kTile, width); ++x) pixel(x, y);
+  });
 }
 
 inline std::string cpu_name() {
   return "CPU, " + std::to_string(std::thread::hardware_concurrency()) + " hardware threads";
 }
 
-// What a CPU render reports: RenderInfo for `compiled` features on `threads` threads.
-inline void fill_info(RenderInfo* info, unsigned compiled, int threads,
-                      std::chrono::steady_clock::time_point start) {
-  if (!info) return;
-  info->backend = Backend::Cpu;
-  info->device = cpu_name() + ", " + std::to_string(thread_count(threads)) + " used";
-  info->features = compiled;
-  info->build_ms = 0;
-  info->program_cached = false;
-  info->transfer_ms = 0;
-  info->render_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-}
+template <class T>
+class CpuBackend final : public RenderBackend<T> {
+ public:
+  Backend kind() const override { return Backend::Cpu; }
+  std::string device_name() const override {
+    return cpu_name() + ", " + std::to_string(thread_count()) + " used";
+  }
+
+  void set_scene(std::shared_ptr<const PackedScene<T>> scene) override {
+    scene_ = std::move(scene);
+  }
+
+  Image<T> render(const RenderRequest<T>& request, RenderInfo* info = nullptr) override {
+    require_scene(scene_ != nullptr);
+    const PackedFrame<T> frame = pack_frame(scene_->summary(), request);
+    const auto t0 = std::chrono::steady_clock::now();
+    const unsigned compiled =
+        compiled_features(request.options.specialize ? frame.features : TR_F_ALL);
+    const auto& p = frame.params;
+    Image<T> image(p.rect_w, p.rect_h);
+    long long refined = 0;
+    with_features(compiled, [&](auto features) {
+      using K = typename device::Code<T>::template Kernel<decltype(features)::value>;
+      if (p.adaptive_spp > 0)
+        refined = render_adaptive<K>(frame, image);
+      else
+        render_uniform<K>(frame, request.options.output, image);
+    });
+    if (info) {
+      info->backend = Backend::Cpu;
+      info->device = device_name();
+      info->features = compiled;
+      info->build_ms = 0;
+      info->program_cached = false;
+      info->transfer_ms = 0;
+      info->scene_uploaded = false;
+      info->render_ms = sample_plan::ms_since(t0);
+      info->refined_pixels = refined;
+      info->samples = sample_plan::samples_traced(
+          request.options, static_cast<long long>(p.rect_w) * p.rect_h, refined);
+    }
+    return image;
+  }
+
+ private:
+  template <class K>
+  void render_uniform(const PackedFrame<T>& frame, Output output, Image<T>& image) const {
+    const auto scene = frame.ref(*scene_);
+    const auto& p = frame.params;
+    const int aov = output == Output::Depth    ? TR_AOV_DEPTH
+                    : output == Output::Normal ? TR_AOV_NORMAL
+                                               : TR_AOV_OBJECT;
+    for_each_pixel(p.rect_x, p.rect_y, p.rect_w, p.rect_h, [&](int x, int y) {
+      auto c = output == Output::Shaded ? K::tr_render_pixel(&scene, x, y)
+                                        : K::tr_render_aov(&scene, x, y, aov);
+      K::tr_store_rgb(image.rgb.data(), p.rect_w, x - p.rect_x, y - p.rect_y, c);
+    });
+  }
+
+  // The adaptive plan (device/adaptive.h): first pass over the statistics window,
+  // the criterion over the rectangle, then the refinement of the flagged pixels.
+  // Returns how many pixels were refined.
+  template <class K>
+  long long render_adaptive(const PackedFrame<T>& frame, Image<T>& image) const {
+    const auto scene = frame.ref(*scene_);
+    const auto& p = frame.params;
+    std::vector<T> stats(static_cast<size_t>(p.stats_w) * p.stats_h * TR_ADAPTIVE_STATS);
+    for_each_pixel(p.stats_x, p.stats_y, p.stats_w, p.stats_h, [&](int x, int y) {
+      glm::vec<3, T> range;
+      auto sum = K::tr_adaptive_first(&scene, x, y, &range);
+      K::tr_adaptive_store_stats(&p, stats.data(), x, y, sum, range);
+      const int rx = x - p.rect_x, ry = y - p.rect_y;
+      if (rx >= 0 && ry >= 0 && rx < p.rect_w && ry < p.rect_h)
+        K::tr_store_rgb(image.rgb.data(), p.rect_w, rx, ry, sum * (T(1) / T(p.spp)));
+    });
+    std::vector<int> flags(static_cast<size_t>(p.rect_w) * p.rect_h);
+    parallel_for(p.rect_h, 8, [&](int j) {
+      for (int i = 0; i < p.rect_w; ++i)
+        flags[static_cast<size_t>(j) * p.rect_w + i] =
+            K::tr_adaptive_refine_flag(&p, stats.data(), p.rect_x + i, p.rect_y + j);
+    });
+    const std::vector<int> list = sample_plan::flagged_pixels(flags);
+    parallel_for(static_cast<int>(list.size()), 16, [&](int k) {
+      const int i = list[k] % p.rect_w, j = list[k] / p.rect_w;
+      K::tr_store_rgb(image.rgb.data(), p.rect_w, i, j,
+                      K::tr_adaptive_refine(&scene, stats.data(), p.rect_x + i, p.rect_y + j));
+    });
+    return static_cast<long long>(list.size());
+  }
+
+  std::shared_ptr<const PackedScene<T>> scene_;
+};
 
 }  // namespace cpu
 }  // namespace twinray

@@ -1,22 +1,29 @@
-// render(): the one entry point. Packs the scene, picks the backend and runs it.
-//   Backend::Cpu     the CPU backend (always there)
-//   Backend::OpenCL  the OpenCL backend; needs twinray::opencl (TWINRAY_WITH_OPENCL)
-//   Backend::Auto    OpenCL when a device exists, otherwise the CPU; says which
+// Choosing a backend, and the one-call entry point.
+//
+//   make_backend<T>(options)   the backend options.backend names:
+//     Backend::Cpu     the CPU backend (always there)
+//     Backend::OpenCL  the OpenCL backend on options.device; needs twinray::opencl
+//     Backend::Auto    OpenCL when a device exists, otherwise the CPU; it says which,
+//                      and falls back to the CPU (and says why) when the OpenCL set-up
+//                      fails later, for example a program that does not build
+//   render(scene, camera, options)   packs the scene, makes the backend, renders once.
+//
 // Both backends return the same Image<T>, bit for bit on PoCL.
 #pragma once
 
 #include <chrono>
+#include <memory>
 #include <string>
 
-#include <twinray/backend/adaptive.hpp>
+#include <twinray/backend/backend.hpp>
 #include <twinray/backend/cpu.hpp>
 #include <twinray/core/error.hpp>
 #include <twinray/core/fp_contract_check.hpp>
 #include <twinray/core/image.hpp>
 #include <twinray/core/options.hpp>
-#include <twinray/core/pack.hpp>
+#include <twinray/pack/pack.hpp>
 #ifdef TWINRAY_WITH_OPENCL
-#include <twinray/backend/opencl.hpp>
+#include <twinray/backend/opencl/backend.hpp>
 #endif
 
 namespace twinray {
@@ -38,12 +45,10 @@ inline bool opencl_available(int device = -1, std::string* why = nullptr) {
 #endif
 }
 
-// Renders a packed scene with the chosen backend. `features` is the mask compiled in:
-// ps.features for a specialized program, TR_F_ALL for the generic one.
-template <class T>
-Image<T> render_packed(const PackedScene<T>& ps, unsigned features, const RenderOptions& options,
-                       RenderInfo* info = nullptr) {
-  static const bool contraction_warned = [&] {
+namespace detail {
+
+inline void warn_if_contracted(const RenderOptions& options) {
+  static const bool warned = [&] {
     if (fp_contraction_detected())
       log_note(options,
                "warning: this program was compiled with floating-point contraction (FMA); "
@@ -51,40 +56,83 @@ Image<T> render_packed(const PackedScene<T>& ps, unsigned features, const Render
                "twinray CMake targets add it).");
     return true;
   }();
-  (void)contraction_warned;
-  Backend backend = options.backend;
-  const bool automatic = backend == Backend::Auto;
-  if (automatic) {
-    std::string why;
-    backend = opencl_available(options.device, &why) ? Backend::OpenCL : Backend::Cpu;
-    log_note(options, backend == Backend::OpenCL ? "backend auto: using OpenCL"
-                                                 : "backend auto: using the CPU (" + why + ")");
-  }
-  const bool adaptive = options.adaptive_spp > 0 && options.output == Output::Shaded;
-  if (backend == Backend::OpenCL) {
+  (void)warned;
+}
+
+template <class T>
+std::unique_ptr<RenderBackend<T>> make_opencl_backend(int device) {
 #ifdef TWINRAY_WITH_OPENCL
+  return std::make_unique<opencl::OpenCLBackend<T>>(device);
+#else
+  (void)device;
+  throw Error(ErrorKind::BackendUnavailable,
+              "twinray was built without OpenCL (link twinray::opencl)");
+#endif
+}
+
+}  // namespace detail
+
+// Backend::Auto: renders on OpenCL, and from the first OpenCL failure on (a program
+// that does not build, a device without fp64 or with too little memory) on the CPU,
+// saying why. Bad requests (InvalidInput) are not failures of the device: they throw.
+// It keeps a reference to the scene for the CPU it may fall back to.
+template <class T>
+class AutoBackend final : public RenderBackend<T> {
+ public:
+  AutoBackend(std::unique_ptr<RenderBackend<T>> primary, RenderOptions options)
+      : active_(std::move(primary)), options_(std::move(options)) {}
+
+  Backend kind() const override { return active_->kind(); }
+  std::string device_name() const override { return active_->device_name(); }
+
+  void set_scene(std::shared_ptr<const PackedScene<T>> scene) override {
+    scene_ = scene;
+    active_->set_scene(std::move(scene));
+  }
+
+  Image<T> render(const RenderRequest<T>& request, RenderInfo* info = nullptr) override {
+    if (active_->kind() == Backend::Cpu) return active_->render(request, info);
     try {
-      if (adaptive) return adaptive::render_packed(ps, features, Backend::OpenCL, options, info);
-      return opencl::render_packed(opencl::shared_context(options.device), ps, features,
-                                   options.output, info);
+      return active_->render(request, info);
     } catch (const Error& e) {
-      // Auto: an OpenCL set-up that fails (the program does not build, the device has
-      // no double support or too little memory) falls back to the CPU and says why.
-      if (!automatic || e.kind() == ErrorKind::InvalidInput) throw;
+      if (e.kind() == ErrorKind::InvalidInput) throw;
+      log_note(options_,
+               std::string("backend auto: OpenCL failed, using the CPU (") + e.what() + ")");
+      active_ = std::make_unique<cpu::CpuBackend<T>>();
+      active_->set_scene(scene_);
+      return active_->render(request, info);
+    }
+  }
+
+ private:
+  std::unique_ptr<RenderBackend<T>> active_;
+  std::shared_ptr<const PackedScene<T>> scene_;
+  RenderOptions options_;
+};
+
+// The backend options.backend names, on options.device; notes (Auto's choice and
+// fallbacks) go to options.log. Throws BackendUnavailable for Backend::OpenCL without
+// a device, or for double on a device without fp64.
+template <class T>
+std::unique_ptr<RenderBackend<T>> make_backend(const RenderOptions& options) {
+  detail::warn_if_contracted(options);
+  if (options.backend == Backend::Cpu) return std::make_unique<cpu::CpuBackend<T>>();
+  if (options.backend == Backend::OpenCL) return detail::make_opencl_backend<T>(options.device);
+  std::string why;
+  if (opencl_available(options.device, &why)) {
+    try {
+      auto opencl = detail::make_opencl_backend<T>(options.device);
+      log_note(options, "backend auto: using OpenCL");
+      return std::make_unique<AutoBackend<T>>(std::move(opencl), options);
+    } catch (const Error& e) {
+      // A device that cannot take this render (double without fp64).
       log_note(options,
                std::string("backend auto: OpenCL failed, using the CPU (") + e.what() + ")");
+      return std::make_unique<cpu::CpuBackend<T>>();
     }
-#else
-    throw Error(ErrorKind::BackendUnavailable,
-                "twinray was built without OpenCL (link twinray::opencl)");
-#endif
   }
-  if (adaptive) return adaptive::render_packed(ps, features, Backend::Cpu, options, info);
-  auto t0 = std::chrono::steady_clock::now();
-  unsigned compiled = cpu::compiled_features(features);
-  Image<T> image = cpu::render_packed(ps, compiled, options.threads, options.output);
-  cpu::fill_info(info, compiled, options.threads, t0);
-  return image;
+  log_note(options, "backend auto: using the CPU (" + why + ")");
+  return std::make_unique<cpu::CpuBackend<T>>();
 }
 
 // Renders `scene` through `camera` (T = float or double, end to end) with `options`;
@@ -95,15 +143,20 @@ Image<T> render_packed(const PackedScene<T>& ps, unsigned features, const Render
 // RuntimeFailure (the OpenCL program does not build, the device runs out of memory).
 // Backend::Auto instead falls back to the CPU, and logs why, when there is no device
 // or the OpenCL set-up fails.
-// Any thread may call it, also several at once; the scene is only read.
+// Any thread may call it, also several at once; the scene is only read. A frame loop
+// makes one backend and calls its render() instead (backend/backend.hpp): this packs
+// the scene on every call.
 template <class T>
 Image<T> render(const Scene<T>& scene, const Camera<T>& camera, const RenderOptions& options,
                 RenderInfo* info = nullptr) {
-  auto t0 = std::chrono::steady_clock::now();
-  PackedScene<T> ps = pack(scene, camera, options);
-  double pack_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  Image<T> image = render_packed(ps, options.specialize ? ps.features : TR_F_ALL, options, info);
+  const auto t0 = std::chrono::steady_clock::now();
+  validate(camera);
+  validate(options);
+  auto packed = share(pack_scene(scene));
+  const double pack_ms = sample_plan::ms_since(t0);
+  std::unique_ptr<RenderBackend<T>> backend = make_backend<T>(options);
+  backend->set_scene(std::move(packed));
+  Image<T> image = backend->render({camera, scene.lights, options, {}}, info);
   if (info) info->pack_ms = pack_ms;
   return image;
 }

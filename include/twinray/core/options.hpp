@@ -59,7 +59,6 @@ struct RenderOptions {
   int adaptive_spp = 0;
   double adaptive_threshold = 1.0 / 32;
   Output output = Output::Shaded;
-  int threads = 0;  // CPU backend threads; 0 = all cores
   int device = -1;  // OpenCL device index over all platforms (twinray info); -1 = first
   // Build the OpenCL program (and pick the CPU instantiation) for exactly the features
   // this scene uses. false: the generic program with everything compiled in, switched
@@ -69,7 +68,7 @@ struct RenderOptions {
   std::function<void(const std::string&)> log;
 };
 
-// Filled in by render() when asked: what ran and how long it took.
+// Filled in by a render when asked: what ran and how long it took.
 struct RenderInfo {
   Backend backend = Backend::Cpu;  // the backend that rendered
   std::string device;              // CPU model / OpenCL device name
@@ -80,6 +79,7 @@ struct RenderInfo {
   double render_ms = 0;            // rendering, transfers included
   long long rays = 0;              // estimate filled by benchmarks
   double transfer_ms = 0;          // host<->device copies inside render_ms (0 on the CPU)
+  bool scene_uploaded = false;     // this render sent the scene's arrays to the device
   long long refined_pixels = 0;    // adaptive sampling: pixels that got adaptive_spp
   long long samples = 0;           // adaptive sampling: camera samples traced in all
 };

@@ -19,8 +19,10 @@
  * pixel again with the larger layout. Every step is a function of the pixel alone or
  * of first-pass sums, so both backends give the same bits.
  *
- * Per-pixel statistics of the first pass: 6 reals per pixel, row-major: the sum of the
- * samples (r, g, b), then the range of the samples (r, g, b). */
+ * Per-pixel statistics of the first pass: 6 reals per pixel, row-major over the
+ * statistics window of TrParams (stats_x, stats_y, stats_w, stats_h; the whole frame,
+ * or a rectangle and its neighbours): the sum of the samples (r, g, b), then the range
+ * of the samples (r, g, b). */
 
 #define TR_ADAPTIVE_STATS 6
 
@@ -46,9 +48,14 @@ TR_FN vec3 tr_adaptive_first(const TrSceneRef* s, int px, int py, vec3* range) {
   return sum;
 }
 
-TR_FN void tr_adaptive_store_stats(TR_GLOBAL real* stats, int width, int px, int py, vec3 sum,
-                                   vec3 range) {
-  int i = (py * width + px) * TR_ADAPTIVE_STATS;
+/* Where pixel (px, py) of the frame keeps its statistics. */
+TR_FN int tr_adaptive_stats_index(TR_GLOBAL const TrParams* p, int px, int py) {
+  return ((py - p->stats_y) * p->stats_w + (px - p->stats_x)) * TR_ADAPTIVE_STATS;
+}
+
+TR_FN void tr_adaptive_store_stats(TR_GLOBAL const TrParams* p, TR_GLOBAL real* stats, int px,
+                                   int py, vec3 sum, vec3 range) {
+  int i = tr_adaptive_stats_index(p, px, py);
   stats[i] = sum.x;
   stats[i + 1] = sum.y;
   stats[i + 2] = sum.z;
@@ -57,8 +64,9 @@ TR_FN void tr_adaptive_store_stats(TR_GLOBAL real* stats, int width, int px, int
   stats[i + 5] = range.z;
 }
 
-TR_FN vec3 tr_adaptive_sum(TR_GLOBAL const real* stats, int width, int px, int py) {
-  int i = (py * width + px) * TR_ADAPTIVE_STATS;
+TR_FN vec3 tr_adaptive_sum(TR_GLOBAL const TrParams* p, TR_GLOBAL const real* stats, int px,
+                           int py) {
+  int i = tr_adaptive_stats_index(p, px, py);
   return TR_VEC3(stats[i], stats[i + 1], stats[i + 2]);
 }
 
@@ -66,15 +74,15 @@ TR_FN vec3 tr_adaptive_sum(TR_GLOBAL const real* stats, int width, int px, int p
 TR_FN real tr_adaptive_contrast(TR_GLOBAL const TrParams* p, TR_GLOBAL const real* stats, int px,
                                 int py) {
   int width = p->width, height = p->height;
-  int i = (py * width + px) * TR_ADAPTIVE_STATS;
+  int i = tr_adaptive_stats_index(p, px, py);
   real contrast = tr_max_component(TR_VEC3(stats[i + 3], stats[i + 4], stats[i + 5]));
   real inv = TR_R(1.0) / (real)p->spp;
-  vec3 mean = tr_adaptive_sum(stats, width, px, py) * inv;
+  vec3 mean = tr_adaptive_sum(p, stats, px, py) * inv;
   for (int dy = -1; dy <= 1; ++dy) {
     for (int dx = -1; dx <= 1; ++dx) {
       int x = px + dx, y = py + dy;
       if ((dx == 0 && dy == 0) || x < 0 || y < 0 || x >= width || y >= height) continue;
-      vec3 d = tr_adaptive_sum(stats, width, x, y) * inv - mean;
+      vec3 d = tr_adaptive_sum(p, stats, x, y) * inv - mean;
       contrast = tr_max(contrast, tr_max_component(tr_abs3(d)));
     }
   }
@@ -95,7 +103,7 @@ TR_FN vec3 tr_adaptive_refine(const TrSceneRef* s, TR_GLOBAL const real* stats, 
   vec3 sum = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
   if (p->sampler == TR_SAMPLER_R2) {
     first = p->spp;
-    sum = tr_adaptive_sum(stats, p->width, px, py);
+    sum = tr_adaptive_sum(p, stats, px, py);
   }
   for (int i = first; i < n; ++i) {
     TrSample2 smp = tr_sample_position_seeded(p->sampler, p->seed, i, n, px, py);

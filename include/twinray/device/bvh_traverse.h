@@ -36,7 +36,7 @@ TR_FN_INLINE TrBoxRay tr_box_ray(TrRay ray) {
  * direction, once per ray (Williams, Barrus, Morley, Shirley, "An Efficient and Robust
  * Ray-Box Intersection Algorithm", JGT 2005), so there is no swap and no branch. The
  * far end of every slab and of the ray segment is grown by 1 + 2 gamma(3) (pbrt-v4
- * Bounds3::IntersectP), and the builder pads every box (core/bvh.hpp), so rounding
+ * Bounds3::IntersectP), and the builder pads every box (pack/bvh.hpp), so rounding
  * never culls a box that holds a primitive the primitive tests would report. A slab
  * distance that is NaN (0 * inf: the origin on a face of a box the ray runs parallel
  * to) fails its compare below and narrows nothing. */
@@ -65,7 +65,7 @@ TR_FN_INLINE int tr_ray_hits_box(TR_GLOBAL const TrBvhNode* node, const TrBoxRay
  * ray enters first and pushes the other with its entry distance, which is checked
  * again when it is popped, against the closest hit found by then (a box entered beyond
  * it cannot hold a closer hit). The stack holds at most one entry per level, and the
- * builder caps the depth (core/bvh.hpp kMaxDepth < TR_BVH_STACK_SIZE), so it never
+ * builder caps the depth (pack/bvh.hpp kMaxDepth < TR_BVH_STACK_SIZE), so it never
  * overflows. */
 TR_FN int tr_bvh_walk(const TrSceneRef* s, TrRay ray, real tmax, TrHit* hit, int any_hit) {
   if (s->params->n_bvh_nodes <= 0) return 0;

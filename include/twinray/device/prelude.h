@@ -16,7 +16,7 @@
  *   TR_COUNT_RAY()      counts a ray query in benchmark builds (host only; else nothing)
  *
  * On the device, TR_FEATURES and TR_DOUBLE arrive as -D build options. On the host,
- * include/twinray/core/device_code.hpp includes the function headers inside
+ * include/twinray/device/code.hpp includes the function headers inside
  * `template <unsigned TR_FEATURES> struct Kernel`, so the same TR_HAS text is a
  * template parameter test there, and includes them once per precision with its
  * own `real`/`vec3` typedefs.

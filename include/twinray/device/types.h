@@ -3,7 +3,7 @@
  * Buffer structs (everything the host packs and uploads) hold plain `real` and `int`
  * fields only, never vec3: float3 is 16 bytes in OpenCL and glm::vec3 is 12. Reals come
  * first and ints pad to an even count, so sizeof and every offset agree between g++ and
- * OpenCL in float and double; core/device_code.hpp checks the sizes with static_assert
+ * OpenCL in float and double; device/code.hpp checks the sizes with static_assert
  * and the tests check them against the kernel's own sizeof.
  *
  * No include guard: the host includes this file once per precision, in namespaces
@@ -66,7 +66,12 @@ typedef struct TrParams {
   real ortho_dir_x, ortho_dir_y, ortho_dir_z;       /* -W, the orthographic ray direction */
   real bg_r, bg_g, bg_b;                            /* background color */
   real adaptive_threshold; /* refine a pixel whose contrast exceeds it (device/adaptive.h) */
-  int width, height;
+  int width, height; /* the whole frame */
+  /* The pixels this render computes: the framebuffer holds rect_w x rect_h of them,
+   * from (rect_x, rect_y). Adaptive sampling's first pass covers the statistics window,
+   * the rectangle plus a one-pixel border clipped to the frame (pack/pack.hpp). */
+  int rect_x, rect_y, rect_w, rect_h;
+  int stats_x, stats_y, stats_w, stats_h;
   int projection; /* 0 perspective, 1 orthographic */
   int spp, sampler, max_depth;
   int seed;         /* sampler seed: jitter and per-pixel shifts (device/sampling.h) */

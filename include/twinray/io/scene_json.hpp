@@ -29,7 +29,7 @@
 
 #include <twinray/core/error.hpp>
 #include <twinray/core/options.hpp>
-#include <twinray/core/validate.hpp>
+#include <twinray/scene/validate.hpp>
 #include <twinray/io/obj_mesh.hpp>
 #include <twinray/scene/camera.hpp>
 #include <twinray/scene/scene.hpp>

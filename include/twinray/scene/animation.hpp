@@ -257,6 +257,16 @@ void animate_into(const Scene<T>& base, const Camera<T>& base_camera, const Anim
   }
 }
 
+// Whether the animation moves objects (not only the camera and lights): a frame loop
+// then packs the scene again for every frame.
+template <class T>
+bool moves_objects(const Animation<T>& animation) {
+  for (const Path<T>& path : animation.paths)
+    for (const Target& t : path.targets)
+      if (t.kind == Target::Object) return true;
+  return false;
+}
+
 // The scene and camera of frame `frame` (any integer; an animation is defined beyond
 // its `frames`, the count only says how long a movie of it is).
 template <class T>

@@ -41,7 +41,7 @@ struct Camera {
     return focal_length ? *focal_length : glm::length(position - look_at);
   }
 
-  // The view plane and basis. Call validate() (core/validate.hpp) first: an up vector
+  // The view plane and basis. Call validate() (scene/validate.hpp) first: an up vector
   // parallel to the view direction has no basis.
   CameraFrame<T> frame() const {
     CameraFrame<T> f;

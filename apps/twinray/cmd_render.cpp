@@ -28,7 +28,7 @@ int run_render(const RenderArgs& a) {
                       Progress::wanted(a.shared.quiet));
     f.options.log = [&progress](const std::string& line) { progress.note(line); };
     twinray::RenderInfo info;
-    twinray::Image<T> image = render_scene(f, &info);
+    twinray::Image<T> image = SceneRenderer<T>().render(f, &info);
     progress.set_label("writing " + a.output);
     write_image(a.output, image);
     progress.finish();

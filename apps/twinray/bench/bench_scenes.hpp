@@ -1,6 +1,6 @@
 // The benchmark scenes (issue 5), built through the C++ API so twinray and the Embree
 // comparison program render exactly the same geometry, materials, lights and camera:
-//   demo          the seed's demo scene (examples/demo_scene.hpp)
+//   demo          the seed's demo scene (include/twinray/scene/demo_scene.hpp)
 //   spheres_<N>   N random spheres over the demo's glazed floor plane; the radius
 //                 shrinks as N^(-1/3), so the spheres fill the same share of the volume
 //                 at every N and the image stays alike while N grows
@@ -26,7 +26,7 @@
 
 #include <twinray/twinray.hpp>
 
-#include "demo_scene.hpp"
+#include <twinray/scene/demo_scene.hpp>
 
 namespace twinray_bench {
 
@@ -68,7 +68,7 @@ void add_floor_and_light(twinray::Scene<T>& scene) {
 
 template <class T>
 twinray::Camera<T> demo_camera(int width, int height) {
-  return demo::make_demo_scene<T>(width, height).camera;
+  return twinray::demo::make_demo_scene<T>(width, height).camera;
 }
 
 template <class T>
@@ -205,7 +205,7 @@ BenchScene<T> make_scene(const std::string& name, int width, int height,
   };
   std::string rest;
   if (name == "demo" || name == "demo_4spp") {
-    auto d = demo::make_demo_scene<T>(width, height);
+    auto d = twinray::demo::make_demo_scene<T>(width, height);
     b.scene = d.scene;
     b.camera = d.camera;
     b.spp = name == "demo" ? 1 : 4;

@@ -1,4 +1,5 @@
-// The seed's demo scene (shared/SEED.md), built through the C++ API.
+// The demo scene of the original assignment, built through the C++ API (the
+// `twinray render demo` scene, and examples/scenes/demo.json as a scene file).
 //
 // Choices the seed leaves open, written down:
 // - "Up" is -y: the camera's up is (0, -1, 0) and the floor is the plane y = +1 with
@@ -19,8 +20,13 @@
 #include <string>
 #include <vector>
 
-#include <twinray/twinray.hpp>
+#include <glm/vec3.hpp>
 
+#include <twinray/core/options.hpp>
+#include <twinray/scene/camera.hpp>
+#include <twinray/scene/scene.hpp>
+
+namespace twinray {
 namespace demo {
 
 template <class T>
@@ -99,3 +105,4 @@ void apply(const Variant& v, DemoSetup<T>& d, twinray::RenderOptions& options) {
 }
 
 }  // namespace demo
+}  // namespace twinray

@@ -1,4 +1,4 @@
-// The scenes of `twinray report`: the demo (examples/demo_scene.hpp) and "edges", a
+// The scenes of `twinray report`: the demo (include/twinray/scene/demo_scene.hpp) and "edges", a
 // scene made of edges: a Siemens star of 18 thin triangles (a mesh fanning out from one
 // vertex), its shadow on a wall behind it, and five small spheres, two of them
 // glazed, with sharp highlights. examples/scenes/report_edges.json is the same scene
@@ -11,7 +11,7 @@
 #include <twinray/scene/camera.hpp>
 #include <twinray/scene/scene.hpp>
 
-#include "demo_scene.hpp"
+#include <twinray/scene/demo_scene.hpp>
 
 namespace twinray_cli {
 namespace report {
@@ -26,7 +26,7 @@ struct ReportScene {
 
 template <class T>
 ReportScene<T> demo_scene(int size) {
-  demo::DemoSetup<T> d = demo::make_demo_scene<T>(size, size);
+  twinray::demo::DemoSetup<T> d = twinray::demo::make_demo_scene<T>(size, size);
   return {"demo", d.scene, d.camera, 4};
 }
 

@@ -6,7 +6,7 @@
 //   return twinray_cli::with_precision(opts, [&](auto zero) {
 //     using T = decltype(zero);
 //     twinray::io::SceneFile<T> f = twinray_cli::prepare_scene<T>(scene, opts);
-//     twinray::Image<T> image = twinray_cli::render_scene(f, &info);
+//     twinray::Image<T> image = twinray_cli::SceneRenderer<T>().render(f, &info);
 //     ...
 //   });
 // Everything here is compiled once (cli_common.cpp, render_call.cpp) for float and
@@ -16,6 +16,7 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -25,6 +26,7 @@
 #include <twinray/core/image.hpp>
 #include <twinray/core/options.hpp>
 #include <twinray/io/scene_json.hpp>
+#include <twinray/pack/pack.hpp>
 
 namespace twinray_cli {
 
@@ -76,7 +78,7 @@ unsigned parse_terms(const std::string& list);
 
 // ---- scenes ----
 // SCENE as given on the command line: a scene file, or `demo` for the seed's demo scene
-// (examples/demo_scene.hpp; a file named demo is read as ./demo).
+// (include/twinray/scene/demo_scene.hpp; a file named demo is read as ./demo).
 template <class T>
 twinray::io::SceneFile<T> load_scene_arg(const std::string& scene);
 
@@ -95,10 +97,29 @@ int with_precision(const SharedOptions& options, F&& f) {
   return f(float{});
 }
 
-// render() on a prepared scene (render_call.cpp, the one translation unit that
-// instantiates the renderer).
+// Renders prepared scene files through one backend (backend/backend.hpp), made at the
+// first render from that file's options (backend, device, log) and kept. The scene is
+// packed and uploaded again only when `geometry` differs from the previous render's:
+// frames that move only the camera or the lights reuse it. render_call.cpp is the one
+// translation unit that instantiates the renderer.
 template <class T>
-twinray::Image<T> render_scene(const twinray::io::SceneFile<T>& file, twinray::RenderInfo* info);
+class SceneRenderer {
+ public:
+  SceneRenderer();
+  ~SceneRenderer();
+  SceneRenderer(const SceneRenderer&) = delete;
+  SceneRenderer& operator=(const SceneRenderer&) = delete;
+
+  // Renders `rect` of the file's frame (default: all of it).
+  twinray::Image<T> render(const twinray::io::SceneFile<T>& file, twinray::RenderInfo* info,
+                           long long geometry = 0, twinray::PixelRect rect = {});
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+extern template class SceneRenderer<float>;
+extern template class SceneRenderer<double>;
 
 // ---- output images ----
 enum class ImageFormat { Png, Pfm, Ppm };

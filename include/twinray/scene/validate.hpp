@@ -109,11 +109,11 @@ void validate(const Camera<T>& camera) {
     detail::require_range("camera.focal_length", *camera.focal_length, T(0), T(INFINITY), true);
 }
 
-// Scene: finite geometry, radii > 0, non-zero plane normals, mesh and material indices
-// in range; material and background colors in [0, 1], light colors >= 0; ka, kd, ks,
-// shininess and light intensities >= 0; glaze in [0, 1].
+// Geometry and materials: finite geometry, radii > 0, non-zero plane normals, mesh and
+// material indices in range; material and background colors in [0, 1]; ka, kd, ks and
+// shininess >= 0; glaze in [0, 1].
 template <class T>
-void validate(const Scene<T>& scene) {
+void validate_geometry(const Scene<T>& scene) {
   using detail::at;
   using detail::refuse;
   for (int c = 0; c < 3; ++c)
@@ -167,9 +167,16 @@ void validate(const Scene<T>& scene) {
       check_material(base, m->material);
     }
   }
-  for (size_t i = 0; i < scene.lights.size(); ++i) {
+}
+
+// Lights: finite positions, intensities and colors >= 0, and a finite product of the two.
+template <class T>
+void validate_lights(const std::vector<PointLight<T>>& lights) {
+  using detail::at;
+  using detail::refuse;
+  for (size_t i = 0; i < lights.size(); ++i) {
     std::string base = at("lights", i);
-    const PointLight<T>& l = scene.lights[i];
+    const PointLight<T>& l = lights[i];
     detail::require_finite(base + ".position", l.position);
     detail::require_range(base + ".intensity", l.intensity, T(0), T(INFINITY));
     for (int c = 0; c < 3; ++c)
@@ -185,8 +192,16 @@ void validate(const Scene<T>& scene) {
   }
 }
 
+// The whole scene: validate_geometry and validate_lights.
+template <class T>
+void validate(const Scene<T>& scene) {
+  validate_geometry(scene);
+  validate_lights(scene.lights);
+}
+
 // Options: spp in [1, Limits::max_spp], max_depth in [1, Limits::max_depth], only
-// known term bits, threads >= 0.
+// known term bits; adaptive sampling, when on, with more samples than spp and a finite
+// threshold >= 0.
 inline void validate(const RenderOptions& options) {
   using detail::refuse;
   if (options.spp < 1 || options.spp > Limits::max_spp)
@@ -197,8 +212,13 @@ inline void validate(const RenderOptions& options) {
                                    std::to_string(options.max_depth));
   if ((options.terms & ~unsigned(kAllTerms)) != 0u)
     refuse("render.terms", "unknown term bits " + std::to_string(options.terms));
-  if (options.threads < 0)
-    refuse("threads", "must be >= 0, got " + std::to_string(options.threads));
+  if (options.adaptive_spp != 0 &&
+      (options.adaptive_spp <= options.spp || options.adaptive_spp > Limits::max_spp))
+    refuse("render.adaptive.spp", "must be more than render.spp (" + std::to_string(options.spp) +
+                                      ") and at most " + std::to_string(Limits::max_spp) +
+                                      ", got " + std::to_string(options.adaptive_spp));
+  if (!(options.adaptive_threshold >= 0.0) || !(options.adaptive_threshold < 1e30))
+    refuse("render.adaptive.threshold", "must be a finite number >= 0");
 }
 
 }  // namespace twinray

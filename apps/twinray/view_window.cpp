@@ -121,7 +121,8 @@ class RenderThread {
       };
       twinray::RenderInfo info;
       auto t0 = std::chrono::steady_clock::now();
-      twinray::Image<T> image = render_scene(frame_, &info);
+      const bool moves = animation_ && twinray::moves_objects(*animation_);
+      twinray::Image<T> image = renderer_.render(frame_, &info, moves ? job.state.frame : 0);
       out.result.ms =
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       out.result.backend = info.backend;
@@ -139,6 +140,7 @@ class RenderThread {
   const twinray::io::SceneFile<T>& base_;
   const twinray::Animation<T>* animation_;
   twinray::io::SceneFile<T> frame_;
+  SceneRenderer<T> renderer_;  // one backend, the scene packed once per geometry
   Uint32 wake_event_;
   std::mutex mutex_;
   std::condition_variable wake_;

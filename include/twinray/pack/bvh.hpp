@@ -6,8 +6,8 @@
 // Layout (device/types.h TrBvhNode): node 0 is the root; an inner node's two children
 // are adjacent at `first` (lower along its split axis) and `first + 1`; a leaf's
 // primitives are bvh_prims[first .. first + count). Primitive ids: spheres first
-// (0 .. n_spheres - 1), then triangles. The build reorders ps.spheres and
-// ps.triangles into leaf order (see build()).
+// (0 .. n_spheres - 1), then triangles. build() returns the nodes and the order of the
+// primitives in the leaves; pack() reorders the scene's arrays by it.
 //
 // Guarantees the traversal relies on:
 //  - depth: no leaf is deeper than kMaxDepth, so the traversal's stack of
@@ -18,7 +18,7 @@
 //    scene's precision, so rounding in the primitive tests never makes a primitive
 //    report a hit through a box the ray misses.
 //
-// The build runs subtrees on separate threads (up to `threads`, 0 = all cores); the
+// The build runs subtrees on separate threads (parallel_for, core/parallel.hpp); the
 // result does not depend on the thread count.
 #pragma once
 
@@ -28,16 +28,13 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
-#include <thread>
 #include <type_traits>
 #include <vector>
 
-#include <twinray/core/device_code.hpp>
+#include <twinray/core/parallel.hpp>
+#include <twinray/device/code.hpp>
 
 namespace twinray {
-
-template <class T>
-struct PackedScene;
 
 namespace bvh {
 
@@ -148,7 +145,7 @@ struct Builder {
   std::vector<PrimRef<R>>& refs;
   std::atomic<int> spare_threads;
 
-  Builder(std::vector<PrimRef<R>>& r, int threads) : refs(r), spare_threads(threads - 1) {}
+  explicit Builder(std::vector<PrimRef<R>>& r) : refs(r), spare_threads(thread_count() - 1) {}
 
   // Fills nodes[self] for refs[begin, end), whose bounds and centroid bounds are box
   // and cbox, and appends its descendants to `nodes`. A split hands each child its
@@ -188,16 +185,17 @@ struct Builder {
       build(nodes, first + 1, mid, end, depth + 1, child_box[1], child_cbox[1]);
       return;
     }
-    // The left subtree on a new thread: each side into its own array, spliced in
-    // left then right, the order a serial build writes them in, so the result does
-    // not depend on the thread count.
-    std::vector<Node> left(1), right(1);
-    std::thread worker([&] { build(left, 0, begin, mid, depth + 1, child_box[0], child_cbox[0]); });
-    build(right, 0, mid, end, depth + 1, child_box[1], child_cbox[1]);
-    worker.join();
+    // The two subtrees side by side (parallel_for with one index each), each into its
+    // own array, spliced in left then right, the order a serial build writes them in,
+    // so the result does not depend on the thread count.
+    std::vector<Node> sub[2] = {std::vector<Node>(1), std::vector<Node>(1)};
+    parallel_for(2, 1, [&](int side) {
+      build(sub[side], 0, side == 0 ? begin : mid, side == 0 ? mid : end, depth + 1,
+            child_box[side], child_cbox[side]);
+    });
     spare_threads.fetch_add(1);
-    splice(nodes, first, left);
-    splice(nodes, first + 1, right);
+    splice(nodes, first, sub[0]);
+    splice(nodes, first + 1, sub[1]);
   }
 
   // Moves a subtree built on its own (root at sub[0]) to nodes[slot] and the end.
@@ -371,104 +369,58 @@ struct Builder {
   }
 };
 
-inline int hardware_threads(int requested) {
-  if (requested > 0) return requested;
-  unsigned n = std::thread::hardware_concurrency();
-  return n > 0 ? static_cast<int>(n) : 1;
-}
-
 }  // namespace detail
 
-// Builds the BVH of ps's spheres and triangles into ps.bvh_nodes / ps.bvh_prims and
-// switches it on (params.n_bvh_nodes, the TR_F_BVH feature bit). Replaces any BVH
-// already there.
+// A built BVH: the nodes, and the primitive ids in leaf order (order[i] is the id of
+// the i-th primitive the leaves list: spheres first, 0 .. n_spheres - 1, then
+// triangles). pack() reorders the scene's arrays by it (pack/pack.hpp).
 template <class T>
-void build(PackedScene<T>& ps, int threads = 0) {
-  using Node = typename device::Code<T>::BvhNode;
-  const int n_spheres = static_cast<int>(ps.spheres.size());
-  const int n = n_spheres + static_cast<int>(ps.triangles.size());
-  ps.bvh_nodes.clear();
-  ps.bvh_prims.clear();
-  if (n > 0) {
-    std::vector<PrimRef<T>> refs(static_cast<size_t>(n));
-    int n_threads = detail::hardware_threads(threads);
-    auto fill = [&](int begin, int end) {
-      for (int i = begin; i < end; ++i) {
-        PrimRef<T>& r = refs[static_cast<size_t>(i)];
-        r.id = i;
-        Box box;  // in double, then rounded outward to T
-        if (i < n_spheres) {
-          const auto& s = ps.spheres[static_cast<size_t>(i)];
-          double c[3] = {s.cx, s.cy, s.cz}, rad = s.radius;
-          for (int a = 0; a < 3; ++a) {
-            box.lo[a] = c[a] - rad;
-            box.hi[a] = c[a] + rad;
-          }
-        } else {
-          const auto& t = ps.triangles[static_cast<size_t>(i - n_spheres)];
-          double p[3][3] = {{t.p0x, t.p0y, t.p0z}, {t.p1x, t.p1y, t.p1z}, {t.p2x, t.p2y, t.p2z}};
-          for (auto& v : p) box.grow(v);
-        }
-        for (int a = 0; a < 3; ++a) {
-          r.box.lo[a] = round_down<T>(box.lo[a]);
-          r.box.hi[a] = round_up<T>(box.hi[a]);
-        }
-      }
-    };
-    if (n >= kParallelMinPrims && n_threads > 1) {
-      std::vector<std::thread> pool;
-      int chunk = (n + n_threads - 1) / n_threads;
-      for (int t = 1; t < n_threads; ++t)
-        pool.emplace_back(fill, std::min(n, t * chunk), std::min(n, (t + 1) * chunk));
-      fill(0, std::min(n, chunk));
-      for (auto& th : pool) th.join();
-    } else {
-      fill(0, n);
-    }
-    detail::Builder<Node, T> builder(refs, n_threads);
-    Box root_box, root_cbox;
-    detail::bounds_of(refs, 0, n, &root_box, &root_cbox);
-    ps.bvh_nodes.reserve(static_cast<size_t>(n));
-    ps.bvh_nodes.emplace_back();
-    builder.build(ps.bvh_nodes, 0, 0, n, 0, root_box, root_cbox);
-    // Spheres and triangles are reordered into the order the leaves list them, so a
-    // leaf's primitives lie side by side in memory and a ray that walks the tree reads
-    // them in order (hits report the object id stored in the primitive, which moves
-    // with it). bvh_prims then runs through each array in order.
-    std::vector<typename device::Code<T>::Sphere> spheres;
-    std::vector<typename device::Code<T>::Triangle> triangles;
-    spheres.reserve(ps.spheres.size());
-    triangles.reserve(ps.triangles.size());
-    ps.bvh_prims.resize(static_cast<size_t>(n));
-    for (int i = 0; i < n; ++i) {
-      int id = refs[static_cast<size_t>(i)].id;
-      if (id < n_spheres) {
-        ps.bvh_prims[static_cast<size_t>(i)] = static_cast<int>(spheres.size());
-        spheres.push_back(ps.spheres[static_cast<size_t>(id)]);
-      } else {
-        ps.bvh_prims[static_cast<size_t>(i)] = n_spheres + static_cast<int>(triangles.size());
-        triangles.push_back(ps.triangles[static_cast<size_t>(id - n_spheres)]);
-      }
-    }
-    ps.spheres.swap(spheres);
-    ps.triangles.swap(triangles);
-  }
-  ps.params.n_bvh_nodes = static_cast<int>(ps.bvh_nodes.size());
-  if (ps.bvh_nodes.empty())
-    ps.features &= ~TR_F_BVH;
-  else
-    ps.features |= TR_F_BVH;
-  ps.params.features = static_cast<int>(ps.features);
-}
+struct Bvh {
+  std::vector<typename device::Code<T>::BvhNode> nodes;
+  std::vector<int> order;
+};
 
-// Removes the BVH: spheres and triangles go back to the linear loops.
+// Builds the BVH of these spheres and triangles; touches nothing else. Runs on the
+// threads of parallel_for (core/parallel.hpp); the result does not depend on how many.
 template <class T>
-void strip(PackedScene<T>& ps) {
-  ps.bvh_nodes.clear();
-  ps.bvh_prims.clear();
-  ps.params.n_bvh_nodes = 0;
-  ps.features &= ~TR_F_BVH;
-  ps.params.features = static_cast<int>(ps.features);
+Bvh<T> build(const std::vector<typename device::Code<T>::Sphere>& spheres,
+             const std::vector<typename device::Code<T>::Triangle>& triangles) {
+  using Node = typename device::Code<T>::BvhNode;
+  const int n_spheres = static_cast<int>(spheres.size());
+  const int n = n_spheres + static_cast<int>(triangles.size());
+  Bvh<T> bvh;
+  if (n == 0) return bvh;
+  std::vector<PrimRef<T>> refs(static_cast<size_t>(n));
+  parallel_for(n, 4096, [&](int i) {
+    PrimRef<T>& r = refs[static_cast<size_t>(i)];
+    r.id = i;
+    Box box;  // in double, then rounded outward to T
+    if (i < n_spheres) {
+      const auto& s = spheres[static_cast<size_t>(i)];
+      double c[3] = {s.cx, s.cy, s.cz}, rad = s.radius;
+      for (int a = 0; a < 3; ++a) {
+        box.lo[a] = c[a] - rad;
+        box.hi[a] = c[a] + rad;
+      }
+    } else {
+      const auto& t = triangles[static_cast<size_t>(i - n_spheres)];
+      double p[3][3] = {{t.p0x, t.p0y, t.p0z}, {t.p1x, t.p1y, t.p1z}, {t.p2x, t.p2y, t.p2z}};
+      for (auto& v : p) box.grow(v);
+    }
+    for (int a = 0; a < 3; ++a) {
+      r.box.lo[a] = round_down<T>(box.lo[a]);
+      r.box.hi[a] = round_up<T>(box.hi[a]);
+    }
+  });
+  detail::Builder<Node, T> builder(refs);
+  Box root_box, root_cbox;
+  detail::bounds_of(refs, 0, n, &root_box, &root_cbox);
+  bvh.nodes.reserve(static_cast<size_t>(n));
+  bvh.nodes.emplace_back();
+  builder.build(bvh.nodes, 0, 0, n, 0, root_box, root_cbox);
+  bvh.order.resize(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) bvh.order[static_cast<size_t>(i)] = refs[static_cast<size_t>(i)].id;
+  return bvh;
 }
 
 // Depth, node and leaf counts (for tests and benchmarks).

@@ -25,10 +25,10 @@
 #include <sstream>
 
 #include <stb_image.h>
-#include <twinray/core/validate.hpp>
+#include <twinray/scene/validate.hpp>
 #include <twinray/io/animation_json.hpp>
 #include <twinray/io/atomic_file.hpp>
-#include <twinray/io/ffmpeg_pipe.hpp>
+#include "ffmpeg_pipe.hpp"
 #include <twinray/io/png.hpp>
 
 #include "cli_common.hpp"
@@ -336,6 +336,8 @@ int make_movie(const MovieArgs& a, const std::string& ffmpeg) {
   twinray::io::FfmpegEncoder encoder(ffmpeg, store.encoding_path(), width, height, fps);
   twinray::io::SceneFile<T> frame = f;
   frame.options.log = [&progress](const std::string& line) { progress.note(line); };
+  SceneRenderer<T> renderer;
+  const bool moves_objects = twinray::moves_objects(anim);
   twinray::RenderInfo info;
   std::string device;
   long long kept = 0, rendered = 0;
@@ -347,10 +349,10 @@ int make_movie(const MovieArgs& a, const std::string& ffmpeg) {
     if (!store.load(k, width, height, rgb)) {
       twinray::animate_into(f.scene, f.camera, anim, k, frame.scene, frame.camera);
       auto r0 = Clock::now();
-      twinray::Image<T> image = render_scene(frame, &info);
+      // One backend for the whole movie: the scene is packed again only for the
+      // frames of an animation that moves objects.
+      twinray::Image<T> image = renderer.render(frame, &info, moves_objects ? k : 0);
       render_s += std::chrono::duration<double>(Clock::now() - r0).count();
-      // Auto picks once; later frames go straight to the backend it chose.
-      frame.options.backend = info.backend;
       device = std::string(twinray::to_string(info.backend)) + " (" + info.device + ")";
       rgb = twinray::io::to_rgb8(image);
       std::vector<unsigned char> png = twinray::io::encode_png(image);

@@ -1,7 +1,7 @@
 // The subcommand registry of the `twinray` program.
 //
 // Each subcommand lives in its own cmd_<name>.cpp and registers itself with a static
-// Command object; examples/twinray/CMakeLists.txt compiles every cmd_*.cpp, so adding a
+// Command object; apps/twinray/CMakeLists.txt compiles every cmd_*.cpp, so adding a
 // subcommand touches no shared file:
 //
 //   namespace {

@@ -7,7 +7,7 @@
 #include <twinray/backend/cpu.hpp>
 #include <twinray/version.hpp>
 #ifdef TWINRAY_WITH_OPENCL
-#include <twinray/backend/opencl.hpp>
+#include <twinray/backend/opencl/program.hpp>
 #endif
 
 #include "cli_common.hpp"

@@ -13,12 +13,12 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include <twinray/core/validate.hpp>
+#include <twinray/scene/validate.hpp>
 #include <twinray/io/atomic_file.hpp>
 #include <twinray/io/pfm.hpp>
 #include <twinray/io/png.hpp>
 
-#include "demo_scene.hpp"
+#include <twinray/scene/demo_scene.hpp>
 
 namespace twinray_cli {
 
@@ -144,7 +144,7 @@ unsigned parse_terms(const std::string& list) {
 template <class T>
 twinray::io::SceneFile<T> load_scene_arg(const std::string& scene) {
   if (scene == "demo") {
-    demo::DemoSetup<T> d = demo::make_demo_scene<T>();
+    twinray::demo::DemoSetup<T> d = twinray::demo::make_demo_scene<T>();
     twinray::io::SceneFile<T> f;
     f.scene = d.scene;
     f.camera = d.camera;
@@ -160,7 +160,7 @@ void apply_shared_options(twinray::io::SceneFile<T>& f, const SharedOptions& o) 
   twinray::RenderOptions& r = f.options;
   r.backend = parse_backend(o.backend);
   r.device = o.device;
-  r.threads = o.threads;
+  twinray::set_thread_count(o.threads);
   if (o.width > 0) f.camera.width = o.width;
   if (o.height > 0) f.camera.height = o.height;
   if (o.spp > 0) r.spp = o.spp;

@@ -42,14 +42,15 @@ struct Kernel {
 }  // namespace f64
 
 // Layout checks: the OpenCL compiler must lay these out the same way; the kernel
-// tr_layout_sizes reports its sizes and tests/device/layout_test.cpp compares them.
+// tr_kernel_layout_sizes reports its sizes and tests/backend/opencl_program_test.cpp
+// compares them.
 static_assert(sizeof(f32::TrSphere) == 32 && sizeof(f64::TrSphere) == 48, "TrSphere layout");
 static_assert(sizeof(f32::TrTriangle) == 44 && sizeof(f64::TrTriangle) == 80, "TrTriangle layout");
 static_assert(sizeof(f32::TrPlane) == 32 && sizeof(f64::TrPlane) == 56, "TrPlane layout");
 static_assert(sizeof(f32::TrMaterial) == 32 && sizeof(f64::TrMaterial) == 64, "TrMaterial layout");
 static_assert(sizeof(f32::TrLight) == 24 && sizeof(f64::TrLight) == 48, "TrLight layout");
 static_assert(sizeof(f32::TrBvhNode) == 32 && sizeof(f64::TrBvhNode) == 56, "TrBvhNode layout");
-static_assert(sizeof(f32::TrParams) == 76 + 56 && sizeof(f64::TrParams) == 152 + 56,
+static_assert(sizeof(f32::TrParams) == 76 + 88 && sizeof(f64::TrParams) == 152 + 88,
               "TrParams layout");
 
 // Maps the scalar type T to its instantiation of the device code.

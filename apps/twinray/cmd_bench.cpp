@@ -1,13 +1,13 @@
 // `twinray bench [SCENE] [options]`: the timing table (CLI.md), CSV on stdout, one line
 // per scene x backend x precision; the machine, OpenCL program builds and notes on
-// stderr. The runner and the built-in scenes are bench/bench.hpp and
+// stderr. The runner and the built-in scenes are apps/twinray/bench/bench_runner.hpp and
 // bench/bench_scenes.hpp, shared with the bench/twinray_bench program.
 #include <iostream>
 #include <memory>
 #include <string>
 #include <vector>
 
-#include "../../bench/bench.hpp"
+#include "bench/bench_runner.hpp"
 #include "cli_common.hpp"
 #include "command.hpp"
 
@@ -73,7 +73,7 @@ int run_bench(const BenchArgs& a) {
   if (a.precision != "float") precisions.push_back("double");
   twinray_bench::Config config;
   config.runs = a.runs;
-  config.threads = a.threads;
+  twinray::set_thread_count(a.threads);
   config.bvh = a.bvh == "on" ? 1 : (a.bvh == "off" ? -1 : 0);
   config.note = [](const std::string& s) { std::cerr << "twinray: " << s << "\n"; };
   std::cerr << "twinray: machine: " << twinray_bench::machine_description() << "\n";

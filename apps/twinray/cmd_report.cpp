@@ -155,7 +155,7 @@ Image<T> render_once(const report::ReportScene<T>& rs, const RenderOptions& o, R
   f.camera = rs.camera;
   f.options = o;
   f.path = rs.name;
-  return render_scene(f, info);
+  return SceneRenderer<T>().render(f, info);
 }
 
 template <class T>
@@ -209,7 +209,6 @@ class Reporter {
     RenderOptions o;
     o.backend = b;
     o.max_depth = max_depth;
-    o.threads = args_.threads;
     o.log = [](const std::string&) {};
     return o;
   }

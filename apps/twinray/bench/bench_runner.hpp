@@ -99,29 +99,23 @@ inline double ms_since(std::chrono::steady_clock::time_point t0) {
 // the device code. It has every feature compiled in and honours the run-time mask
 // (TrParams::features), so it traces exactly the rays the timed render traces.
 template <class T>
-long long count_rays(const twinray::PackedScene<T>& ps, int threads) {
+long long count_rays(const twinray::PackedScene<T>& ps, const twinray::PackedFrame<T>& frame) {
   using Kernel = typename twinray::device::Code<T>::template Kernel<TR_F_ALL | TR_F_COUNT_RAYS>;
-  const auto scene = ps.ref();
-  const int width = ps.params.width, height = ps.params.height;
-  std::atomic<int> next_row{0};
+  const auto scene = frame.ref(ps);
+  const int width = frame.params.width, height = frame.params.height;
   std::atomic<long long> total{0};
-  auto worker = [&] {
-    long long before = twinray::device::ray_counter();
-    for (int y; (y = next_row.fetch_add(1)) < height;)
-      for (int x = 0; x < width; ++x) (void)Kernel::tr_render_pixel(&scene, x, y);
+  twinray::parallel_for(height, 1, [&](int y) {
+    long long before = twinray::device::ray_counter();  // counts per thread
+    for (int x = 0; x < width; ++x) (void)Kernel::tr_render_pixel(&scene, x, y);
     total += twinray::device::ray_counter() - before;
-  };
-  std::vector<std::thread> pool;
-  for (int i = 1; i < threads; ++i) pool.emplace_back(worker);
-  worker();
-  for (auto& t : pool) t.join();
+  });
   return total.load();
 }
 
 struct Config {
   int runs = 5;
-  int threads = 0;  // CPU backend threads; 0 = all
-  // BVH: 0 as pack() decides (the threshold), 1 always, -1 never (threshold measurements)
+  // BVH: 0 as pack_scene decides (the threshold), 1 always, -1 never (threshold
+  // measurements)
   int bvh = 0;
   std::function<void(const std::string&)> note = [](const std::string& s) {
     std::cerr << s << "\n";
@@ -140,29 +134,32 @@ Row run(const BenchScene<T>& b, twinray::Backend backend, const Config& config) 
   twinray::RenderOptions options = b.options;
   options.backend = backend;
   options.spp = b.spp;
-  options.threads = config.threads;
   options.log = [&](const std::string& s) { config.note(s); };
 
   reset_peak();
   auto t0 = std::chrono::steady_clock::now();
-  twinray::PackedScene<T> ps = twinray::pack(b.scene, b.camera, options);
-  if (config.bvh > 0) twinray::bvh::build(ps, options.threads);
-  if (config.bvh < 0) twinray::bvh::strip(ps);
+  const twinray::BvhPolicy policy = config.bvh > 0   ? twinray::BvhPolicy::Always
+                                    : config.bvh < 0 ? twinray::BvhPolicy::Never
+                                                     : twinray::BvhPolicy::Auto;
+  auto ps = twinray::share(twinray::pack_scene(b.scene, policy));
   row.build_ms = ms_since(t0);
   row.primitives =
-      static_cast<long long>(ps.spheres.size() + ps.triangles.size() + ps.planes.size());
-  if (!ps.bvh_nodes.empty()) {
-    twinray::bvh::Stats st = twinray::bvh::stats(ps.bvh_nodes);
+      static_cast<long long>(ps->spheres.size() + ps->triangles.size() + ps->planes.size());
+  if (!ps->bvh_nodes.empty()) {
+    twinray::bvh::Stats st = twinray::bvh::stats(ps->bvh_nodes);
     char buf[160];
     std::snprintf(
         buf, sizeof buf, ": BVH %d nodes, %d leaves (%.2f primitives each, at most %d), depth %d",
-        st.nodes, st.leaves, double(ps.bvh_prims.size()) / st.leaves, st.max_leaf, st.max_depth);
+        st.nodes, st.leaves, double(ps->bvh_prims.size()) / st.leaves, st.max_leaf, st.max_depth);
     config.note(b.name + " " + row.precision + buf);
   }
 
+  const twinray::RenderRequest<T> request{b.camera, b.scene.lights, options, {}};
+  std::unique_ptr<twinray::RenderBackend<T>> renderer = twinray::make_backend<T>(options);
+  renderer->set_scene(ps);
   twinray::RenderInfo info;
   auto w0 = std::chrono::steady_clock::now();
-  (void)twinray::render_packed(ps, ps.features, options, &info);  // warm-up (program build)
+  (void)renderer->render(request, &info);  // warm-up (program build, scene upload)
   double first_ms = ms_since(w0);
   if (backend == twinray::Backend::OpenCL) {
     char buf[256];
@@ -176,7 +173,7 @@ Row run(const BenchScene<T>& b, twinray::Backend backend, const Config& config) 
   std::vector<double> times;
   for (int i = 0; i < config.runs; ++i) {
     auto r0 = std::chrono::steady_clock::now();
-    (void)twinray::render_packed(ps, ps.features, options, &info);
+    (void)renderer->render(request, &info);
     times.push_back(ms_since(r0));
   }
   row.peak_mib = peak_mib();
@@ -184,7 +181,7 @@ Row run(const BenchScene<T>& b, twinray::Backend backend, const Config& config) 
   row.min_ms = times.front();
   row.max_ms = times.back();
   row.median_ms = times[times.size() / 2];
-  row.rays = count_rays(ps, twinray::cpu::thread_count(config.threads));
+  row.rays = count_rays(*ps, twinray::pack_frame(ps->summary(), request));
   row.mrays_per_s = row.median_ms > 0 ? row.rays / (row.median_ms * 1e3) : 0;
   return row;
 }

@@ -1,0 +1,95 @@
+// The backend interface: one contract that the CPU and the OpenCL backend implement.
+//
+// A backend is made once per device (make_backend, backend/render.hpp). It takes a
+// packed scene, uploads it once and keeps it until the next set_scene(). Each render()
+// takes a RenderRequest (pack/pack.hpp): camera, lights, options and a pixel
+// rectangle. The options carry the sample plan (options.spp with the sampler, and
+// options.adaptive_spp for adaptive sampling) and the output (the shaded image or one
+// AOV). A frame that changes only the camera, the lights or the options repacks and
+// re-uploads nothing of the scene.
+//
+//   auto backend = twinray::make_backend<float>(options);
+//   backend->set_scene(twinray::share(twinray::pack_scene(scene)));
+//   for (int frame = 0; frame < 100; ++frame) {
+//     camera.position = orbit(frame);
+//     twinray::Image<float> image = backend->render({camera, scene.lights, options});
+//   }
+//
+// Guarantees of every backend:
+//  - The same request gives the same bits on every backend (PoCL's CPU device here;
+//    docs/architecture.md, "Bitwise parity").
+//  - The pixels of a rectangle are bit-identical to the same pixels of a whole-frame
+//    render, adaptive sampling included.
+//  - A backend object is used from one thread at a time; several objects may render at
+//    once (OpenCL objects on one device take turns on its queue).
+#pragma once
+
+#include <algorithm>
+#include <chrono>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <twinray/core/image.hpp>
+#include <twinray/core/options.hpp>
+#include <twinray/pack/pack.hpp>
+
+namespace twinray {
+
+template <class T>
+class RenderBackend {
+ public:
+  virtual ~RenderBackend() = default;
+
+  // Which backend this is (Cpu or OpenCL) and the device it runs on.
+  virtual Backend kind() const = 0;
+  virtual std::string device_name() const = 0;
+
+  // The scene to render from now on. The backend keeps the pointer (the CPU reads the
+  // arrays in place) or uploads the arrays at the next render and lets it go (OpenCL).
+  virtual void set_scene(std::shared_ptr<const PackedScene<T>> scene) = 0;
+
+  // Renders the request against the scene; the image is rect.width x rect.height (the
+  // whole frame by default). Throws InvalidInput for a bad request (nothing rendered)
+  // or when no scene was set; BackendUnavailable or RuntimeFailure from the device.
+  virtual Image<T> render(const RenderRequest<T>& request, RenderInfo* info = nullptr) = 0;
+};
+
+// A packed scene as set_scene() takes it.
+template <class T>
+std::shared_ptr<const PackedScene<T>> share(PackedScene<T>&& scene) {
+  return std::make_shared<const PackedScene<T>>(std::move(scene));
+}
+
+// Helpers the backends share: the adaptive sample plan's host steps and timings.
+namespace sample_plan {
+
+// Camera samples an adaptive render traces: spp everywhere, plus the refinement's
+// (the R2 sampler continues the first pass; the others start the pixel again).
+inline long long samples_traced(const RenderOptions& o, long long pixels, long long refined) {
+  if (o.adaptive_spp == 0 || o.output != Output::Shaded) return pixels * o.spp;
+  long long extra = o.sampler == Sampler::R2 ? o.adaptive_spp - o.spp : o.adaptive_spp;
+  return pixels * o.spp + refined * extra;
+}
+
+// Indices of the flagged pixels, in order.
+inline std::vector<int> flagged_pixels(const std::vector<int>& flags) {
+  std::vector<int> list;
+  for (size_t i = 0; i < flags.size(); ++i)
+    if (flags[i]) list.push_back(static_cast<int>(i));
+  return list;
+}
+
+inline double ms_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
+}
+
+}  // namespace sample_plan
+
+// Throws InvalidInput when a backend is asked to render before it has a scene.
+inline void require_scene(bool has_scene) {
+  if (!has_scene)
+    throw invalid_input("render: no scene; call set_scene() with a packed scene first");
+}
+
+}  // namespace twinray

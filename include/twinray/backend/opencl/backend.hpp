@@ -1,0 +1,241 @@
+// The OpenCL backend: the launches. It builds (or takes from the cache) the program
+// for the render's Features mask (program.hpp), sends the scene's arrays once per scene
+// and the frame's parameters and lights every render (buffers.hpp), runs one
+// work-item per pixel of the rectangle and reads the framebuffer back.
+#pragma once
+
+#include <array>
+#include <chrono>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include <twinray/backend/backend.hpp>
+#include <twinray/backend/opencl/buffers.hpp>
+#include <twinray/backend/opencl/context.hpp>
+#include <twinray/backend/opencl/program.hpp>
+
+namespace twinray {
+namespace opencl {
+
+// Kernels of one program, released together.
+class Kernels {
+ public:
+  Kernels(cl_program program, std::initializer_list<const char*> names) {
+    for (const char* name : names) {
+      cl_int err = CL_SUCCESS;
+      kernels_.push_back(clCreateKernel(program, name, &err));
+      if (err != CL_SUCCESS) {
+        kernels_.pop_back();
+        release();
+        check(err, "clCreateKernel");
+      }
+    }
+  }
+  Kernels(const Kernels&) = delete;
+  Kernels& operator=(const Kernels&) = delete;
+  ~Kernels() { release(); }
+  cl_kernel operator[](size_t i) const { return kernels_[i]; }
+
+ private:
+  void release() {
+    for (cl_kernel k : kernels_) clReleaseKernel(k);
+    kernels_.clear();
+  }
+  std::vector<cl_kernel> kernels_;
+};
+
+inline void set_arg(cl_kernel k, cl_uint i, size_t size, const void* value) {
+  check(clSetKernelArg(k, i, size, value), "clSetKernelArg");
+}
+
+template <class T>
+class OpenCLBackend final : public RenderBackend<T> {
+ public:
+  // The backend on device `device_index` (over all platforms; -1: the first). Throws
+  // BackendUnavailable when there is no such device, or for double on a device
+  // without fp64.
+  explicit OpenCLBackend(int device_index = -1) : ctx_(shared_context(device_index)) {
+    if (sizeof(T) == 8 && !ctx_.info().has_fp64)
+      throw Error(ErrorKind::BackendUnavailable,
+                  "OpenCL device " + ctx_.info().name +
+                      " has no double precision (cl_khr_fp64); render in float or with the CPU "
+                      "backend");
+  }
+
+  Backend kind() const override { return Backend::OpenCL; }
+  std::string device_name() const override { return ctx_.info().name; }
+  const DeviceInfo& device() const { return ctx_.info(); }
+
+  void set_scene(std::shared_ptr<const PackedScene<T>> scene) override {
+    pending_ = std::move(scene);
+    has_scene_ = pending_ != nullptr;
+    if (has_scene_) scene_ = pending_->summary();
+  }
+
+  // Times the scene's arrays went to the device (once per set_scene that was rendered).
+  long long scene_uploads() const { return scene_uploads_; }
+
+  Image<T> render(const RenderRequest<T>& request, RenderInfo* info = nullptr) override {
+    using clock = std::chrono::steady_clock;
+    require_scene(has_scene_);
+    const PackedFrame<T> frame = pack_frame(scene_, request);
+    const auto& p = frame.params;
+    const unsigned features = request.options.specialize ? frame.features : TR_F_ALL;
+    std::lock_guard<std::mutex> lock(ctx_.mutex());
+    const DeviceInfo& dev = ctx_.info();
+    bool built_now = false;
+    double build_ms = 0;
+    ProgramCache::Entry& program =
+        ctx_.programs().get(build_options(dev, features, sizeof(T) == 8), &built_now, &build_ms);
+
+    const auto t0 = clock::now();
+    const bool uploading = pending_ != nullptr;
+    if (uploading) {
+      buffers_.upload_scene(ctx_, *pending_);
+      pending_.reset();  // the device holds the arrays now
+      ++scene_uploads_;
+    }
+    buffers_.upload_frame(ctx_, frame);
+    double transfer_ms = sample_plan::ms_since(t0);
+
+    const size_t out_bytes = static_cast<size_t>(p.rect_w) * p.rect_h * 3 * sizeof(T);
+    if (out_bytes > dev.max_alloc && dev.max_alloc > 0)
+      throw Error(ErrorKind::RuntimeFailure,
+                  "OpenCL: the framebuffer needs " + std::to_string(out_bytes >> 20) +
+                      " MiB, more than the device's largest allocation (" +
+                      std::to_string(dev.max_alloc >> 20) + " MiB) on " + dev.name);
+    output_.reserve(ctx_.context(), CL_MEM_READ_WRITE, out_bytes, "clCreateBuffer (framebuffer)");
+    long long refined = 0;
+    if (p.adaptive_spp > 0)
+      refined = launch_adaptive(program.program, frame, &transfer_ms);
+    else
+      launch_uniform(program.program, request.options.output, p);
+
+    Image<T> image(p.rect_w, p.rect_h);
+    const auto t_read = clock::now();
+    check(clEnqueueReadBuffer(ctx_.queue(), output_.mem(), CL_TRUE, 0, out_bytes, image.rgb.data(),
+                              0, nullptr, nullptr),
+          "clEnqueueReadBuffer");
+    transfer_ms += sample_plan::ms_since(t_read);
+    ctx_.programs().save_binary(program);
+    if (info) {
+      info->backend = Backend::OpenCL;
+      info->device = dev.name;
+      info->features = features;
+      info->build_ms = build_ms;
+      info->program_cached = !built_now || program.from_cache;
+      info->render_ms = sample_plan::ms_since(t0);
+      info->transfer_ms = transfer_ms;
+      info->scene_uploaded = uploading;
+      info->refined_pixels = refined;
+      info->samples = sample_plan::samples_traced(
+          request.options, static_cast<long long>(p.rect_w) * p.rect_h, refined);
+    }
+    return image;
+  }
+
+ private:
+  using Params = typename device::Code<T>::Params;
+
+  // Rows of 64 work-items on CPU devices (PoCL: the fastest measured,
+  // docs/performance.md), 8x8 tiles elsewhere. One fixed local size: PoCL generates
+  // code once per size.
+  void launch_2d(cl_kernel kernel, int width, int height, const char* what) {
+    const bool cpu = ctx_.info().is_cpu;
+    size_t local[2] = {cpu ? size_t(64) : size_t(8), cpu ? size_t(1) : size_t(8)};
+    size_t global[2] = {(static_cast<size_t>(width) + local[0] - 1) / local[0] * local[0],
+                        (static_cast<size_t>(height) + local[1] - 1) / local[1] * local[1]};
+    check(clEnqueueNDRangeKernel(ctx_.queue(), kernel, 2, nullptr, global, local, 0, nullptr,
+                                 nullptr),
+          what);
+  }
+
+  void set_scene_args(cl_kernel kernel) {
+    std::array<cl_mem, kSceneArgs> args = buffers_.args();
+    for (cl_uint i = 0; i < kSceneArgs; ++i) set_arg(kernel, i, sizeof(cl_mem), &args[i]);
+  }
+
+  void launch_uniform(cl_program program, Output output, const Params& p) {
+    const bool shaded = output == Output::Shaded;
+    Kernels kernels(program, {shaded ? "tr_kernel_render" : "tr_kernel_aov"});
+    cl_kernel k = kernels[0];
+    set_scene_args(k);
+    cl_mem out = output_.mem();
+    set_arg(k, kSceneArgs, sizeof(cl_mem), &out);
+    if (!shaded) {
+      cl_int aov = output == Output::Depth    ? TR_AOV_DEPTH
+                   : output == Output::Normal ? TR_AOV_NORMAL
+                                              : TR_AOV_OBJECT;
+      set_arg(k, kSceneArgs + 1, sizeof aov, &aov);
+    }
+    launch_2d(k, p.rect_w, p.rect_h, "clEnqueueNDRangeKernel");
+    check(clFinish(ctx_.queue()), "clFinish");  // so the read times the copy alone
+  }
+
+  // The adaptive plan (device/adaptive.h): first pass over the statistics window and
+  // the criterion over the rectangle on the device; the host lists the flagged pixels
+  // (4 bytes a pixel come back) and the device refines them. Returns their count.
+  long long launch_adaptive(cl_program program, const PackedFrame<T>& frame, double* transfer_ms) {
+    const Params& p = frame.params;
+    Kernels kernels(program, {"tr_kernel_adaptive_first", "tr_kernel_adaptive_mark",
+                              "tr_kernel_adaptive_refine"});
+    cl_kernel first = kernels[0], mark = kernels[1], refine = kernels[2];
+    const size_t rect_pixels = static_cast<size_t>(p.rect_w) * p.rect_h;
+    stats_.reserve(ctx_.context(), CL_MEM_READ_WRITE,
+                   static_cast<size_t>(p.stats_w) * p.stats_h * TR_ADAPTIVE_STATS * sizeof(T),
+                   "clCreateBuffer (adaptive statistics)");
+    flags_.reserve(ctx_.context(), CL_MEM_READ_WRITE, rect_pixels * sizeof(cl_int),
+                   "clCreateBuffer (adaptive flags)");
+    cl_mem out = output_.mem(), stats = stats_.mem(), flags = flags_.mem();
+    cl_mem params = buffers_.params();
+    set_scene_args(first);
+    set_arg(first, kSceneArgs, sizeof(cl_mem), &out);
+    set_arg(first, kSceneArgs + 1, sizeof(cl_mem), &stats);
+    set_arg(mark, 0, sizeof(cl_mem), &params);
+    set_arg(mark, 1, sizeof(cl_mem), &stats);
+    set_arg(mark, 2, sizeof(cl_mem), &flags);
+    launch_2d(first, p.stats_w, p.stats_h, "clEnqueueNDRangeKernel (adaptive first pass)");
+    launch_2d(mark, p.rect_w, p.rect_h, "clEnqueueNDRangeKernel (adaptive mark)");
+    check(clFinish(ctx_.queue()), "clFinish");
+
+    const auto t_flags = std::chrono::steady_clock::now();
+    std::vector<int> flag_values(rect_pixels);
+    check(clEnqueueReadBuffer(ctx_.queue(), flags, CL_TRUE, 0, rect_pixels * sizeof(cl_int),
+                              flag_values.data(), 0, nullptr, nullptr),
+          "clEnqueueReadBuffer (adaptive flags)");
+    const std::vector<int> list = sample_plan::flagged_pixels(flag_values);
+    const cl_int count = static_cast<cl_int>(list.size());
+    if (count > 0) {
+      pixels_.write(ctx_, CL_MEM_READ_ONLY, list.data(), list.size() * sizeof(int),
+                    "clCreateBuffer (adaptive pixels)");
+      *transfer_ms += sample_plan::ms_since(t_flags);
+      cl_mem pixels = pixels_.mem();
+      set_scene_args(refine);
+      set_arg(refine, kSceneArgs, sizeof(cl_mem), &out);
+      set_arg(refine, kSceneArgs + 1, sizeof(cl_mem), &stats);
+      set_arg(refine, kSceneArgs + 2, sizeof(cl_mem), &pixels);
+      set_arg(refine, kSceneArgs + 3, sizeof count, &count);
+      size_t local = 64, global = (static_cast<size_t>(count) + 63) / 64 * 64;
+      check(clEnqueueNDRangeKernel(ctx_.queue(), refine, 1, nullptr, &global, &local, 0, nullptr,
+                                   nullptr),
+            "clEnqueueNDRangeKernel (adaptive refine)");
+      check(clFinish(ctx_.queue()), "clFinish");
+    } else {
+      *transfer_ms += sample_plan::ms_since(t_flags);
+    }
+    return count;
+  }
+
+  Context& ctx_;
+  SceneSummary<T> scene_;  // what pack_frame reads; the arrays live on the device
+  std::shared_ptr<const PackedScene<T>> pending_;  // set, not yet uploaded
+  bool has_scene_ = false;
+  long long scene_uploads_ = 0;
+  SceneBuffers buffers_;
+  Buffer output_, stats_, flags_, pixels_;
+};
+
+}  // namespace opencl
+}  // namespace twinray

@@ -1,0 +1,98 @@
+// OpenCL buffers of one backend: the scene's arrays (uploaded once per scene), the
+// frame's parameters and lights (a few hundred bytes, written every render), and the
+// framebuffer and adaptive-sampling scratch (grown as needed, never shrunk).
+#pragma once
+
+#include <array>
+#include <string>
+
+#include <twinray/backend/opencl/context.hpp>
+#include <twinray/pack/pack.hpp>
+
+namespace twinray {
+namespace opencl {
+
+// A device buffer that owns its cl_mem and grows on demand.
+class Buffer {
+ public:
+  Buffer() = default;
+  Buffer(const Buffer&) = delete;
+  Buffer& operator=(const Buffer&) = delete;
+  ~Buffer() { release(); }
+
+  cl_mem mem() const { return mem_; }
+
+  // At least `bytes` of storage (OpenCL has no empty buffers: 16 bytes at least);
+  // contents undefined after a reallocation.
+  void reserve(cl_context context, cl_mem_flags flags, size_t bytes, const char* what) {
+    size_t want = bytes > 0 ? bytes : 16;
+    if (mem_ && capacity_ >= want) return;
+    release();
+    cl_int err = CL_SUCCESS;
+    mem_ = clCreateBuffer(context, flags, want, nullptr, &err);
+    check(err, what);
+    capacity_ = want;
+  }
+
+  // Writes `bytes` from `data` to the start, growing the buffer first when needed.
+  void write(const Context& ctx, cl_mem_flags flags, const void* data, size_t bytes,
+             const char* what) {
+    reserve(ctx.context(), flags, bytes, what);
+    if (bytes > 0)
+      check(clEnqueueWriteBuffer(ctx.queue(), mem_, CL_TRUE, 0, bytes, data, 0, nullptr, nullptr),
+            "clEnqueueWriteBuffer");
+  }
+
+ private:
+  void release() {
+    if (mem_) clReleaseMemObject(mem_);
+    mem_ = nullptr;
+    capacity_ = 0;
+  }
+  cl_mem mem_ = nullptr;
+  size_t capacity_ = 0;
+};
+
+// The eight buffers every kernel in kernels/render.cl takes as its first arguments,
+// in this order: params, spheres, triangles, planes, materials, lights, bvh_nodes,
+// bvh_prims.
+constexpr cl_uint kSceneArgs = 8;
+
+class SceneBuffers {
+ public:
+  // The scene's six arrays, sent once per scene.
+  template <class T>
+  void upload_scene(const Context& ctx, const PackedScene<T>& ps) {
+    auto put = [&](Buffer& b, const auto& v) {
+      b.write(ctx, CL_MEM_READ_ONLY, v.data(), v.size() * sizeof(v[0]),
+              "clCreateBuffer (scene data)");
+    };
+    put(spheres_, ps.spheres);
+    put(triangles_, ps.triangles);
+    put(planes_, ps.planes);
+    put(materials_, ps.materials);
+    put(bvh_nodes_, ps.bvh_nodes);
+    put(bvh_prims_, ps.bvh_prims);
+  }
+
+  // A render's parameters and lights.
+  template <class T>
+  void upload_frame(const Context& ctx, const PackedFrame<T>& frame) {
+    params_.write(ctx, CL_MEM_READ_ONLY, &frame.params, sizeof frame.params,
+                  "clCreateBuffer (parameters)");
+    lights_.write(ctx, CL_MEM_READ_ONLY, frame.lights.data(),
+                  frame.lights.size() * sizeof(frame.lights[0]), "clCreateBuffer (lights)");
+  }
+
+  std::array<cl_mem, kSceneArgs> args() const {
+    return {params_.mem(),    spheres_.mem(), triangles_.mem(), planes_.mem(),
+            materials_.mem(), lights_.mem(),  bvh_nodes_.mem(), bvh_prims_.mem()};
+  }
+  cl_mem params() const { return params_.mem(); }
+
+ private:
+  Buffer params_, spheres_, triangles_, planes_, materials_, lights_, bvh_nodes_, bvh_prims_;
+};
+
+}  // namespace opencl
+}  // namespace twinray

@@ -1,0 +1,87 @@
+// The one parallel-for of the host side: the CPU backend's tiles, the adaptive passes,
+// the BVH build and the benchmarks' ray counts all run through parallel_for().
+//
+// The thread count is set once for the process with set_thread_count() (0, the
+// default: every hardware thread). Each call starts its workers and joins them before
+// it returns; the calling thread works too. Starting a few threads costs tens of
+// microseconds, far below one frame, and a call that holds no threads between calls
+// cannot deadlock when a worker calls parallel_for again (the BVH build does). Work is
+// handed out in chunks of `grain` indices from one atomic counter, so items of uneven
+// cost (tiles with and without geometry) balance by themselves.
+//
+// No result may depend on the thread count: callers write to disjoint outputs, or
+// combine per-chunk results in index order.
+#pragma once
+
+#include <algorithm>
+#include <atomic>
+#include <exception>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <twinray/core/error.hpp>
+
+namespace twinray {
+
+namespace detail {
+inline std::atomic<int>& thread_count_setting() {
+  static std::atomic<int> setting{0};
+  return setting;
+}
+}  // namespace detail
+
+// Threads every parallel_for uses from now on; 0: all hardware threads.
+inline void set_thread_count(int threads) {
+  if (threads < 0)
+    throw invalid_input("threads: must be >= 0 (0 = all cores), got " + std::to_string(threads));
+  detail::thread_count_setting().store(threads);
+}
+
+// The thread count in force: the setting, or the hardware's when it is 0.
+inline int thread_count() {
+  int n = detail::thread_count_setting().load();
+  if (n > 0) return n;
+  unsigned hw = std::thread::hardware_concurrency();
+  return hw > 0 ? static_cast<int>(hw) : 1;
+}
+
+// Calls body(i) for every i in [0, count), in chunks of `grain` consecutive indices
+// handed out dynamically to at most thread_count() threads (the caller among them).
+// Returns when every call has returned. If calls throw, the rest of the work is
+// skipped and the first exception is rethrown here.
+template <class Body>
+void parallel_for(int count, int grain, Body&& body) {
+  if (count <= 0) return;
+  grain = std::max(1, grain);
+  const int chunks = (count - 1) / grain + 1;
+  const int workers = std::min(thread_count(), chunks);
+  if (workers <= 1) {
+    for (int i = 0; i < count; ++i) body(i);
+    return;
+  }
+  std::atomic<int> next{0};
+  std::atomic<bool> failed{false};
+  std::exception_ptr error;
+  std::mutex error_mutex;
+  auto work = [&]() {
+    try {
+      for (int begin; !failed.load(std::memory_order_relaxed) &&
+                      (begin = next.fetch_add(grain, std::memory_order_relaxed)) < count;)
+        for (int i = begin, end = std::min(count, begin + grain); i < end; ++i) body(i);
+    } catch (...) {
+      std::lock_guard<std::mutex> lock(error_mutex);
+      if (!error) error = std::current_exception();
+      failed.store(true);
+    }
+  };
+  std::vector<std::thread> pool;
+  pool.reserve(static_cast<size_t>(workers - 1));
+  for (int t = 1; t < workers; ++t) pool.emplace_back(work);
+  work();
+  for (std::thread& t : pool) t.join();
+  if (error) std::rethrow_exception(error);
+}
+
+}  // namespace twinray

@@ -1,0 +1,283 @@
+// Packing: the host's scene types turned into the one memory layout both backends read
+// (the buffer structs of device/types.h, one flat array per primitive type).
+//
+// Two parts, so that a frame loop pays only for what changed:
+//  - pack_scene(scene): the geometry and materials, with the BVH. Done once per scene;
+//    a backend uploads the result once (backend/backend.hpp).
+//  - pack_frame(scene, request): camera, lights, options and pixel rectangle, as the
+//    TrParams and TrLight arrays of one render. Microseconds; done every frame.
+// The Features mask of a render (device/features.h) comes from both parts.
+#pragma once
+
+#include <algorithm>
+#include <atomic>
+#include <cstdint>
+#include <utility>
+#include <vector>
+#include <glm/geometric.hpp>
+
+#include <twinray/core/options.hpp>
+#include <twinray/device/code.hpp>
+#include <twinray/pack/bvh.hpp>
+#include <twinray/scene/camera.hpp>
+#include <twinray/scene/scene.hpp>
+#include <twinray/scene/validate.hpp>
+
+namespace twinray {
+
+// Whether pack_scene builds a BVH: from the measured threshold on (bvh::worth_building),
+// always, or never (benchmarks and tests compare the two).
+enum class BvhPolicy { Auto, Always, Never };
+
+// What a render needs to know of a packed scene besides its arrays: their sizes, the
+// background and which features the geometry uses. A backend that has uploaded the
+// arrays keeps only this.
+template <class T>
+struct SceneSummary {
+  int n_spheres = 0, n_triangles = 0, n_planes = 0, n_bvh_nodes = 0;
+  glm::vec<3, T> background{T(0), T(0), T(0)};
+  unsigned features = 0;  // TR_F_SPHERES, TR_F_TRIANGLES, TR_F_PLANES, TR_F_BVH
+  bool any_glazed = false;
+};
+
+// The packed geometry of a scene: what a backend uploads once and keeps across frames.
+template <class T>
+struct PackedScene {
+  using Code = device::Code<T>;
+  std::vector<typename Code::Sphere> spheres;
+  std::vector<typename Code::Triangle> triangles;
+  std::vector<typename Code::Plane> planes;
+  std::vector<typename Code::Material> materials;
+  std::vector<typename Code::BvhNode> bvh_nodes;
+  std::vector<int> bvh_prims;
+  glm::vec<3, T> background{T(0), T(0), T(0)};
+  // Bits of the geometry: TR_F_SPHERES, TR_F_TRIANGLES, TR_F_PLANES, TR_F_BVH.
+  unsigned features = 0;
+  bool any_glazed = false;  // some material has glaze > 0
+
+  SceneSummary<T> summary() const {
+    SceneSummary<T> s;
+    s.n_spheres = static_cast<int>(spheres.size());
+    s.n_triangles = static_cast<int>(triangles.size());
+    s.n_planes = static_cast<int>(planes.size());
+    s.n_bvh_nodes = static_cast<int>(bvh_nodes.size());
+    s.background = background;
+    s.features = features;
+    s.any_glazed = any_glazed;
+    return s;
+  }
+
+  // Bytes the arrays hold (what an upload sends).
+  size_t bytes() const {
+    return spheres.size() * sizeof(spheres[0]) + triangles.size() * sizeof(triangles[0]) +
+           planes.size() * sizeof(planes[0]) + materials.size() * sizeof(materials[0]) +
+           bvh_nodes.size() * sizeof(bvh_nodes[0]) + bvh_prims.size() * sizeof(int);
+  }
+};
+
+// A pixel rectangle of the frame: columns [x, x + width), rows [y, y + height). The
+// default, width or height 0, is the whole frame.
+struct PixelRect {
+  int x = 0, y = 0, width = 0, height = 0;
+  bool whole_frame() const { return width == 0 || height == 0; }
+};
+
+// Everything one render takes besides the scene's geometry: the camera, the lights,
+// the options (shading switches, the sample plan: spp, sampler, seed and adaptive_spp,
+// and the output: the shaded image or one AOV) and the pixel rectangle. A frame loop
+// changes any of these freely; the backend neither repacks nor re-uploads the scene.
+template <class T>
+struct RenderRequest {
+  Camera<T> camera;
+  std::vector<PointLight<T>> lights;
+  RenderOptions options;
+  PixelRect rect;  // default: the whole frame
+
+  RenderRequest() = default;
+  RenderRequest(Camera<T> camera_, std::vector<PointLight<T>> lights_, RenderOptions options_,
+                PixelRect rect_ = {})
+      : camera(std::move(camera_)),
+        lights(std::move(lights_)),
+        options(std::move(options_)),
+        rect(rect_) {}
+};
+
+// The per-render data as the device code reads it.
+template <class T>
+struct PackedFrame {
+  typename device::Code<T>::Params params{};
+  std::vector<typename device::Code<T>::Light> lights;
+  unsigned features = 0;  // everything this scene and request use (device/features.h)
+
+  typename device::Code<T>::SceneRef ref(const PackedScene<T>& scene) const {
+    typename device::Code<T>::SceneRef s;
+    s.params = &params;
+    s.spheres = scene.spheres.data();
+    s.triangles = scene.triangles.data();
+    s.planes = scene.planes.data();
+    s.materials = scene.materials.data();
+    s.lights = lights.data();
+    s.bvh_nodes = scene.bvh_nodes.data();
+    s.bvh_prims = scene.bvh_prims.data();
+    return s;
+  }
+};
+
+// Packs the geometry and materials of `scene` (checked first: validate(scene)), with a
+// BVH over its spheres and triangles as `bvh` says. Lights are per frame (pack_frame).
+template <class T>
+PackedScene<T> pack_scene(const Scene<T>& scene, BvhPolicy bvh = BvhPolicy::Auto) {
+  validate_geometry(scene);
+  PackedScene<T> ps;
+  ps.background = scene.background;
+  for (const Material<T>& m : scene.materials) {
+    ps.materials.push_back(
+        {m.color.x, m.color.y, m.color.z, m.ka, m.kd, m.ks, m.shininess, m.glaze});
+    if (m.glaze > T(0)) ps.any_glazed = true;
+  }
+  for (size_t i = 0; i < scene.objects.size(); ++i) {
+    int object = static_cast<int>(i);
+    const Object<T>& o = scene.objects[i];
+    auto add_triangle = [&](const glm::vec<3, T>& a, const glm::vec<3, T>& b,
+                            const glm::vec<3, T>& c, int material) {
+      ps.triangles.push_back({a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z, material, object});
+    };
+    if (auto* s = std::get_if<Sphere<T>>(&o)) {
+      ps.spheres.push_back(
+          {s->center.x, s->center.y, s->center.z, s->radius, s->material, object, 0, 0});
+    } else if (auto* t = std::get_if<Triangle<T>>(&o)) {
+      add_triangle(t->vertices[0], t->vertices[1], t->vertices[2], t->material);
+    } else if (auto* p = std::get_if<Plane<T>>(&o)) {
+      glm::vec<3, T> n = glm::normalize(p->normal);
+      ps.planes.push_back({p->point.x, p->point.y, p->point.z, n.x, n.y, n.z, p->material, object});
+    } else if (auto* m = std::get_if<Mesh<T>>(&o)) {
+      for (const auto& f : m->triangles)
+        add_triangle(m->vertices[f[0]], m->vertices[f[1]], m->vertices[f[2]], m->material);
+    }
+  }
+
+  const bool with_bvh =
+      bvh == BvhPolicy::Always ||
+      (bvh == BvhPolicy::Auto && bvh::worth_building(static_cast<long long>(ps.spheres.size()),
+                                                     static_cast<long long>(ps.triangles.size())));
+  if (with_bvh && !(ps.spheres.empty() && ps.triangles.empty())) {
+    bvh::Bvh<T> tree = bvh::build<T>(ps.spheres, ps.triangles);
+    // Spheres and triangles are reordered into the order the leaves list them, so a
+    // leaf's primitives lie side by side in memory and a ray that walks the tree reads
+    // them in order (hits report the object id stored in the primitive, which moves
+    // with it). bvh_prims then runs through each array in order.
+    const int n_spheres = static_cast<int>(ps.spheres.size());
+    std::vector<typename device::Code<T>::Sphere> spheres;
+    std::vector<typename device::Code<T>::Triangle> triangles;
+    spheres.reserve(ps.spheres.size());
+    triangles.reserve(ps.triangles.size());
+    ps.bvh_prims.resize(tree.order.size());
+    for (size_t i = 0; i < tree.order.size(); ++i) {
+      int id = tree.order[i];
+      if (id < n_spheres) {
+        ps.bvh_prims[i] = static_cast<int>(spheres.size());
+        spheres.push_back(ps.spheres[static_cast<size_t>(id)]);
+      } else {
+        ps.bvh_prims[i] = n_spheres + static_cast<int>(triangles.size());
+        triangles.push_back(ps.triangles[static_cast<size_t>(id - n_spheres)]);
+      }
+    }
+    ps.spheres.swap(spheres);
+    ps.triangles.swap(triangles);
+    ps.bvh_nodes = std::move(tree.nodes);
+  }
+  if (!ps.spheres.empty()) ps.features |= TR_F_SPHERES;
+  if (!ps.triangles.empty()) ps.features |= TR_F_TRIANGLES;
+  if (!ps.planes.empty()) ps.features |= TR_F_PLANES;
+  if (!ps.bvh_nodes.empty()) ps.features |= TR_F_BVH;
+  return ps;
+}
+
+// The Features mask of a render: the scene's geometry bits, and what the options and
+// lights switch on.
+template <class T>
+unsigned features_of(const SceneSummary<T>& ps, size_t n_lights, const RenderOptions& options) {
+  unsigned f = ps.features;
+  if (options.output == Output::Shaded) {
+    bool lit = n_lights > 0;
+    if (lit && (options.terms & kAmbient)) f |= TR_F_AMBIENT;
+    if (lit && (options.terms & kDiffuse)) f |= TR_F_DIFFUSE;
+    if (lit && (options.terms & kSpecular)) f |= TR_F_SPECULAR;
+    if (options.shadows && (f & (TR_F_DIFFUSE | TR_F_SPECULAR))) f |= TR_F_SHADOWS;
+    if (options.glaze && options.max_depth > 1 && ps.any_glazed) f |= TR_F_GLAZE;
+  }
+  return f;
+}
+
+// The rectangle a request renders: the whole frame when none is given. Throws
+// InvalidInput for a rectangle that is not inside the frame.
+template <class T>
+PixelRect resolve_rect(const RenderRequest<T>& request) {
+  const int w = request.camera.width, h = request.camera.height;
+  if (request.rect.whole_frame()) return PixelRect{0, 0, w, h};
+  const PixelRect& r = request.rect;
+  if (r.x < 0 || r.y < 0 || r.width < 0 || r.height < 0 || r.x > w - r.width || r.y > h - r.height)
+    throw invalid_input("rect: [" + std::to_string(r.x) + ", " + std::to_string(r.y) + "] + " +
+                        std::to_string(r.width) + " x " + std::to_string(r.height) +
+                        " is not inside the " + std::to_string(w) + " x " + std::to_string(h) +
+                        " frame");
+  return r;
+}
+
+// Packs one render of the scene `ps` summarizes (checked first: the camera, lights and
+// options).
+template <class T>
+PackedFrame<T> pack_frame(const SceneSummary<T>& ps, const RenderRequest<T>& request) {
+  const Camera<T>& camera = request.camera;
+  const RenderOptions& options = request.options;
+  validate(camera);
+  validate_lights(request.lights);
+  validate(options);
+  const PixelRect rect = resolve_rect(request);
+  PackedFrame<T> frame;
+  for (const PointLight<T>& l : request.lights) {
+    glm::vec<3, T> rgb = l.color * l.intensity;
+    frame.lights.push_back({l.position.x, l.position.y, l.position.z, rgb.x, rgb.y, rgb.z});
+  }
+  CameraFrame<T> cf = camera.frame();
+  auto& p = frame.params;
+  p.origin_x = cf.origin.x, p.origin_y = cf.origin.y, p.origin_z = cf.origin.z;
+  p.first_pixel_x = cf.first_pixel.x, p.first_pixel_y = cf.first_pixel.y,
+  p.first_pixel_z = cf.first_pixel.z;
+  p.du_x = cf.du.x, p.du_y = cf.du.y, p.du_z = cf.du.z;
+  p.dv_x = cf.dv.x, p.dv_y = cf.dv.y, p.dv_z = cf.dv.z;
+  p.ortho_dir_x = cf.ortho_dir.x, p.ortho_dir_y = cf.ortho_dir.y, p.ortho_dir_z = cf.ortho_dir.z;
+  p.bg_r = ps.background.x, p.bg_g = ps.background.y, p.bg_b = ps.background.z;
+  p.width = camera.width;
+  p.height = camera.height;
+  p.rect_x = rect.x, p.rect_y = rect.y, p.rect_w = rect.width, p.rect_h = rect.height;
+  p.stats_x = rect.x, p.stats_y = rect.y, p.stats_w = rect.width, p.stats_h = rect.height;
+  p.projection = static_cast<int>(camera.projection);
+  const bool shaded = options.output == Output::Shaded;
+  p.spp = shaded ? options.spp : 1;
+  p.sampler = static_cast<int>(options.sampler);
+  p.seed = options.seed;
+  p.adaptive_spp = shaded ? options.adaptive_spp : 0;
+  p.adaptive_threshold = static_cast<T>(options.adaptive_threshold);
+  p.max_depth = options.max_depth;
+  p.n_spheres = ps.n_spheres;
+  p.n_triangles = ps.n_triangles;
+  p.n_planes = ps.n_planes;
+  p.n_lights = static_cast<int>(frame.lights.size());
+  p.n_bvh_nodes = ps.n_bvh_nodes;
+  frame.features = features_of(ps, frame.lights.size(), options);
+  p.features = static_cast<int>(frame.features);
+  if (p.adaptive_spp > 0) {
+    // The adaptive criterion compares each pixel with its 8 neighbours' first-pass
+    // means (device/adaptive.h): the first pass covers the rectangle and a border of
+    // one pixel, clipped to the frame, so a rectangle's pixels get the same bits as in
+    // a whole-frame render.
+    p.stats_x = std::max(0, rect.x - 1);
+    p.stats_y = std::max(0, rect.y - 1);
+    p.stats_w = std::min(camera.width, rect.x + rect.width + 1) - p.stats_x;
+    p.stats_h = std::min(camera.height, rect.y + rect.height + 1) - p.stats_y;
+  }
+  return frame;
+}
+
+}  // namespace twinray
