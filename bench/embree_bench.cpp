@@ -1,4 +1,4 @@
-// The Embree 3 comparison (issue 5): renders the benchmark scenes (bench_scenes.hpp)
+// The Embree 3 comparison: renders the benchmark scenes (bench_scenes.hpp)
 // with the same camera, Blinn-Phong shading, shadow rays and reflections (up to 4 ray
 // segments) as twinray, with Embree finding the hits, and prints the same CSV columns
 // as twinray_bench. Float only (Embree is single precision).
@@ -15,7 +15,7 @@
 // twinray keeps planes outside its BVH. Secondary rays leave 1e-4 off the surface.
 //
 // Debian's libembree3 is built with assertions on: measured on this machine it is 3-8%
-// slower than a Release build of the same version (issue 5). build_ms is
+// slower than a Release build of the same version. build_ms is
 // rtcCommitScene (geometry upload included), the BVH build in Embree's default
 // (medium) quality with Embree's own threads.
 #include <embree3/rtcore.h>

@@ -1,5 +1,5 @@
-// twinray's benchmark program (issue 5): the timing table of `twinray bench`, as CSV
-// on stdout (shared/CLI.md columns), the machine and notes on stderr.
+// twinray's benchmark program: the timing table of `twinray bench`, as CSV
+// on stdout (docs/command-line.md columns), the machine and notes on stderr.
 //
 //   twinray_bench [--scenes demo,spheres_1e6,...] [--backends cpu,opencl]
 //                 [--precisions float,double] [--runs R] [--width W] [--height H]

@@ -187,7 +187,7 @@ void apply_shared_options(twinray::io::SceneFile<T>& f, const SharedOptions& o) 
     if (f.animation.is_null())
       usage_error("--frame " + std::to_string(o.frame) + ": " + f.path +
                   " has no animation (no \"animation\" key)");
-    twinray::io::apply_frame(f, o.frame);  // io/animation_json.hpp
+    twinray::io::apply_frame(f, o.frame);  // io/scene_json.hpp
   }
   long long pixels = static_cast<long long>(f.camera.width) * f.camera.height;
   if ((o.width > 0 || o.height > 0) && pixels > twinray::Limits::max_pixels)

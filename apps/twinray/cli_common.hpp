@@ -1,4 +1,4 @@
-// What the subcommands of `twinray` share (CLI.md): the render options of render /
+// What the subcommands of `twinray` share (docs/command-line.md): the render options of render /
 // movie / view, loading SCENE (a scene file or `demo`) with those options applied,
 // rendering, writing images atomically, the progress bar and the exit statuses.
 //
@@ -30,7 +30,7 @@
 
 namespace twinray_cli {
 
-// ---- exit statuses (CLI.md) ----
+// ---- exit statuses (docs/command-line.md) ----
 enum ExitStatus {
   kExitOk = 0,
   kExitRuntimeFailure = 1,
@@ -169,7 +169,7 @@ class Progress {
   std::thread thread_;
 };
 
-// The one summary line of a render (CLI.md): output, size, spp, precision, backend,
+// The one summary line of a render (docs/command-line.md): output, size, spp, precision, backend,
 // device, times.
 std::string summary_line(const std::string& output, int width, int height, int spp,
                          const std::string& precision, const std::string& what,

@@ -1,4 +1,4 @@
-// `twinray bench [SCENE] [options]`: the timing table (CLI.md), CSV on stdout, one line
+// `twinray bench [SCENE] [options]`: the timing table (docs/command-line.md), CSV on stdout, one line
 // per scene x backend x precision; the machine, OpenCL program builds and notes on
 // stderr. The runner and the built-in scenes are apps/twinray/bench/bench_runner.hpp and
 // bench/bench_scenes.hpp, shared with the bench/twinray_bench program.

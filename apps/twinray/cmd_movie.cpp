@@ -1,5 +1,5 @@
 // `twinray movie SCENE -o OUT.mp4 [options]`: render the scene's animation to an H.264
-// MP4 through the ffmpeg program (CLI.md, docs/movies.md).
+// MP4 through the ffmpeg program (docs/command-line.md, docs/movies.md).
 //
 // Every frame is kept as a PNG in a frames folder beside the output (OUT.frames/ for
 // OUT.mp4) while the movie is made, and piped to ffmpeg as raw RGB. A run that stops
@@ -284,7 +284,7 @@ int make_movie(const MovieArgs& a, const std::string& ffmpeg) {
   if (f.animation.is_null())
     usage_error(f.path +
                 " has no animation (no \"animation\" key), so there is no movie to "
-                "make; docs/movies.md describes the key");
+                "make; docs/scene-format.md describes the key");
   twinray::Animation<T> anim = twinray::io::parse_animation(f);
   const long long frames = a.frames > 0 ? a.frames : anim.frames;
   const double fps = a.fps > 0 ? a.fps : anim.fps;
@@ -432,7 +432,7 @@ const Command kMovie(
     "movie", "render the scene's animation to an H.264 MP4 (needs the ffmpeg program)",
     [](CLI::App& app) {
       auto a = std::make_shared<MovieArgs>();
-      app.add_option("SCENE", a->scene, "scene file with an \"animation\" (docs/movies.md)")
+      app.add_option("SCENE", a->scene, "scene file with an \"animation\" (docs/scene-format.md)")
           ->required();
       app.add_option("-o,--output", a->output,
                      "output movie (.mp4); frames are kept in OUT.frames/ until it is done")

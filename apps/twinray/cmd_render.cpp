@@ -1,4 +1,4 @@
-// `twinray render SCENE -o OUT [options]`: render one image (CLI.md).
+// `twinray render SCENE -o OUT [options]`: render one image (docs/command-line.md).
 #include <chrono>
 #include <iostream>
 #include <memory>
@@ -46,7 +46,7 @@ const Command kRender(
     "render", "render one image of a scene file (or `demo`) to .png, .pfm or .ppm",
     [](CLI::App& app) {
       auto a = std::make_shared<RenderArgs>();
-      app.add_option("SCENE", a->scene, "scene file (.json, see SCENE_FORMAT.md), or demo")
+      app.add_option("SCENE", a->scene, "scene file (.json, see docs/scene-format.md), or demo")
           ->required();
       app.add_option("-o,--output", a->output,
                      "output image: .png (8-bit), .pfm (32-bit float, exact), .ppm (8-bit)")

@@ -1,4 +1,4 @@
-// `twinray report [--quick] -o DIR`: error against run time (CLI.md).
+// `twinray report [--quick] -o DIR`: error against run time (docs/command-line.md, docs/sampling.md).
 //
 // For each scene (the demo, and "edges": report_scenes.hpp) x precision x sampler x
 // samples per pixel (uniform, and adaptive: device/adaptive.h) x backend, renders
@@ -514,7 +514,7 @@ std::string markdown(const std::vector<Row>& rows, const std::vector<SceneSummar
   s << "\n## Convergence: fitted slope of log RMSE against log spp\n\n"
        "Uniform sampling, float, least squares over spp = ";
   for (size_t i = 0; i < plan.spps.size(); ++i) s << (i ? ", " : "") << plan.spps[i];
-  s << ". Expected (research/robustness.md 6): -0.5 for a regular grid on edges, about -0.75 "
+  s << ". Expected (Mitchell 1996): -0.5 for a regular grid on edges, about -0.75 "
        "for stratified on edges, -1 for smooth regions.\n\n"
        "| scene | sampler | all pixels | edge pixels | smooth pixels |\n|---|---|---|---|---|\n";
   for (const SceneSummary& sm : summaries)

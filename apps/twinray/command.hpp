@@ -14,7 +14,7 @@
 //
 // The setup function adds the subcommand's options to its CLI::App and returns what
 // runs it once the command line is parsed. The function returns an exit status
-// (CLI.md: 0 success, 1 run-time failure, 2 bad command line or scene, 3 backend
+// (docs/command-line.md: 0 success, 1 run-time failure, 2 bad command line or scene, 3 backend
 // unavailable); or it throws twinray::Error, which main() maps to the same statuses.
 #pragma once
 

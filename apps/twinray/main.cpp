@@ -1,10 +1,10 @@
-// twinray: render scene files from the command line (shared/CLI.md).
+// twinray: render scene files from the command line (docs/command-line.md).
 //
 //   twinray render SCENE -o OUT [options]
 //   twinray info
 //
 // Subcommands register themselves (command.hpp); this file parses the command line,
-// runs the chosen one and turns what went wrong into the exit status of CLI.md:
+// runs the chosen one and turns what went wrong into the exit status of docs/command-line.md:
 // 0 success, 1 run-time failure, 2 bad command line or scene, 3 backend unavailable.
 #include <exception>
 #include <iostream>

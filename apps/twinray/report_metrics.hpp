@@ -1,5 +1,5 @@
 // Error metrics of `twinray report`, on the linear framebuffer (before any clamping or
-// quantization; research/robustness.md section 6): RMSE over every channel of every
+// quantization; Mitchell 1996, "Consequences of stratified sampling in graphics"): RMSE over every channel of every
 // pixel, PSNR for a peak of 1, the largest absolute error, and RMSE over the edge and
 // the smooth pixels of the reference separately. Plus the least-squares slope of
 // log RMSE against log samples, and the median of the run times.

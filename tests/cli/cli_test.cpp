@@ -1,4 +1,4 @@
-// Tests of the real `twinray` program (shared/CLI.md): exit statuses, malformed scene
+// Tests of the real `twinray` program (docs/command-line.md): exit statuses, malformed scene
 // files, atomic outputs, the OpenCL backend missing, the progress bar, and bit-exact
 // images: demo.json against examples/demo.cpp, and CPU against OpenCL.
 #include <doctest/doctest.h>
@@ -37,7 +37,7 @@ bool contains(const std::string& haystack, const std::string& needle) {
   return haystack.find(needle) != std::string::npos;
 }
 
-// A small valid scene using every key of SCENE_FORMAT.md; the malformed files below
+// A small valid scene using every key of docs/scene-format.md; the malformed files below
 // are this with one mistake each.
 const std::string kGoodScene = R"({
   "twinray": 1,
@@ -491,7 +491,7 @@ TEST_CASE("AOVs: depth, normal and object index, the same bits on both backends"
         REQUIRE_MESSAGE(cl.status == 0, cl.err);
         CHECK(read_file(dir + "/cpu.pfm") == read_file(dir + "/cl.pfm"));
 
-        // The values mean what CLI.md says.
+        // The values mean what docs/command-line.md says.
         twinray::Image<float> img = twinray::io::read_pfm(dir + "/cpu.pfm");
         if (std::string(aov) == "object") {
           std::set<float> seen;

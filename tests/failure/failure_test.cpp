@@ -1,11 +1,11 @@
-// Every failure path of issue 8, on the real `twinray` program: the exit status of
-// CLI.md (1 run-time failure, 3 backend unavailable), a message that names the cause,
+// Every failure path, on the real `twinray` program: the exit status of
+// docs/command-line.md (1 run-time failure, 3 backend unavailable), a message that names the cause,
 // no partial output file, and `--backend auto` falling back to the CPU with the reason.
 //
 // Broken OpenCL set-ups are made with the real ICD loader and PoCL where they can be:
 // no platform (OCL_ICD_VENDORS = an empty folder), a platform without devices
 // (POCL_DEVICES naming none), a device with too little memory (POCL_MEMORY_LIMIT).
-// Two need twinray's documented test hooks (backend/opencl.hpp): a kernel that does
+// Two need twinray's documented test hooks (backend/opencl/program.hpp, backend/opencl/device.hpp): a kernel that does
 // not build (TWINRAY_TEST_KERNEL_APPEND) and a device without fp64
 // (TWINRAY_TEST_HIDE_FP64; PoCL has fp64). Unwritable folders and full disks are real
 // read-only and 64 KiB tmpfs mounts when the test may mount them (as root: root ignores

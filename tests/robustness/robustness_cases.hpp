@@ -1,4 +1,4 @@
-// The stiff and extreme scenes of issue 4, each with what a correct renderer must
+// The stiff and extreme scenes, each with what a correct renderer must
 // produce, measured in one place: tests/robustness/robustness_test.cpp asserts on the
 // figures, robustness_report.cpp prints them as the table of docs/robustness.md.
 //
@@ -322,7 +322,7 @@ RayT<T> camera_ray(const typename twinray::device::Code<T>::Params& p, int x, in
   return {r.o, r.d};
 }
 
-// Scales of the sweep (issue 4: 1e-4 .. 1e5) and the offsets, in units of the scene's
+// Scales of the sweep (1e-4 .. 1e5) and the offsets, in units of the scene's
 // size: at the origin and 1e4 sizes away.
 inline std::vector<double> sweep_scales() {
   return {1e-4, 1e-2, 1.0, 1e2, 1e5};

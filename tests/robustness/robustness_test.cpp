@@ -1,4 +1,4 @@
-// Issue 4: the stiff and extreme scenes, in float and double, on the CPU and the
+// The stiff and extreme scenes, in float and double, on the CPU and the
 // OpenCL backend. What each case must produce is written next to it in
 // robustness_cases.hpp; here every figure is held to it.
 #include <doctest/doctest.h>

@@ -1,4 +1,4 @@
-// Adaptive anti-aliasing (device/adaptive.h, backend/adaptive.hpp): the same bits on
+// Adaptive anti-aliasing (device/adaptive.h, inside each backend): the same bits on
 // both backends, in float and double, for every sampler; each pixel is exactly the
 // uniform render at spp or at adaptive_spp; the criterion refines edges, not
 // everything.

@@ -1,4 +1,4 @@
-// `twinray report --quick -o DIR` (CLI.md): runs, and writes the CSV, the Markdown
+// `twinray report --quick -o DIR` (docs/command-line.md): runs, and writes the CSV, the Markdown
 // table and the two plots, with every configuration on both backends bit-identical.
 #include <doctest/doctest.h>
 

@@ -1,4 +1,4 @@
-// Camera basis and first pixel center for both projections (SEED.md's formulas).
+// Camera basis and first pixel center for both projections (the original assignment's formulas).
 #include <doctest/doctest.h>
 
 #include <cmath>

@@ -1,9 +1,9 @@
-// The benchmark runner behind `twinray bench` and bench/twinray_bench: renders a
+// The benchmark runner behind `twinray bench` and bench/twinray_bench.cpp.cpp: renders a
 // scene on a backend in a precision, one warm-up then R timed runs, and prints one CSV
-// line per scene x backend x precision (shared/CLI.md):
+// line per scene x backend x precision (docs/command-line.md):
 //   scene,backend,precision,width,height,spp,primitives,build_ms,render_ms_min,
 //   render_ms_median,render_ms_max,rays,mrays_per_s,peak_mib
-// build_ms: pack() with its BVH build; the OpenCL program build goes to stderr.
+// build_ms: pack_scene() with its BVH build; the OpenCL program build goes to stderr.
 // rays: primary + shadow + reflected rays of one frame, counted exactly by a host pass
 // through the device code's ray counter (TR_F_COUNT_RAYS, device/features.h).
 // peak_mib: the process's peak resident memory from packing to the last run (VmHWM,

@@ -1,4 +1,4 @@
-// The benchmark scenes (issue 5), built through the C++ API so twinray and the Embree
+// The benchmark scenes, built through the C++ API so twinray and the Embree
 // comparison program render exactly the same geometry, materials, lights and camera:
 //   demo          the seed's demo scene (include/twinray/scene/demo_scene.hpp)
 //   spheres_<N>   N random spheres over the demo's glazed floor plane; the radius
@@ -231,7 +231,7 @@ BenchScene<T> make_scene(const std::string& name, int width, int height,
   return b;
 }
 
-// The built-in set (issue 5).
+// The built-in set.
 inline std::vector<std::string> default_scenes() {
   return {"demo",        "demo_4spp", "spheres_1e3", "spheres_1e5",
           "spheres_1e6", "mesh_1e4",  "mesh_1e6",    "obj_1e6"};

@@ -1,5 +1,5 @@
 // twinray's one exception type. Its kind tells a program which exit status to use
-// (CLI.md): bad input 2, backend unavailable 3, run-time failure 1.
+// (docs/command-line.md): bad input 2, backend unavailable 3, run-time failure 1.
 #pragma once
 
 #include <stdexcept>

@@ -2,7 +2,7 @@
 // contraction (-ffp-contract=off, which the twinray CMake targets carry). With
 // contraction, g++ fuses a*b+c into an FMA whenever FMA is available (-march=native,
 // any AArch64), and the CPU image then differs from the OpenCL one in ~49% of pixels
-// (research/parity-findings.md, Q3).
+// (docs/architecture.md, "Bitwise parity").
 #pragma once
 
 namespace twinray {

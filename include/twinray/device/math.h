@@ -1,6 +1,6 @@
 /* Small vector and scalar math, written with + - * /, sqrt, fabs, floor and compares
  * only: those are exactly rounded on both sides, where built-ins such as dot,
- * normalize or pow are implementation-defined (research/parity-findings.md, Q3). */
+ * normalize or pow are implementation-defined (docs/architecture.md, "Bitwise parity"). */
 
 TR_FN real tr_min(real a, real b) {
   return a < b ? a : b;

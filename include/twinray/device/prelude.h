@@ -21,7 +21,7 @@
  * template parameter test there, and includes them once per precision with its
  * own `real`/`vec3` typedefs.
  *
- * Parity rules (research/parity-findings.md): no floating-point contraction on either
+ * Parity rules (docs/architecture.md, "Bitwise parity"): no floating-point contraction on either
  * side, and device code calls no built-in whose result is implementation-defined; it
  * uses + - * /, sqrt, fabs, floor, nextafter and comparisons only. */
 #ifndef TWINRAY_DEVICE_PRELUDE_H

@@ -1,4 +1,4 @@
-/* Blinn-Phong shading with hard shadows (SEED.md), in linear RGB. For each point
+/* Blinn-Phong shading with hard shadows (the original assignment's formulas), in linear RGB. For each point
  * light, with C the material color and E = intensity x color / d^2 the light's
  * irradiance at distance d (inverse-square law):
  *   ambient  = ka C E

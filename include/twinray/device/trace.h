@@ -1,5 +1,5 @@
 /* The whole path of one camera ray: closest hit, shading, then the glaze loop.
- * Glazed surfaces add glaze x (what the mirrored ray sees), SEED.md's
+ * Glazed surfaces add glaze x (what the mirrored ray sees), the assignment's
  * reflected = d - 2 (d.n) n. OpenCL C has no recursion, so the mirror chain is a
  * loop carrying the product of the glaze factors; max_depth counts ray segments
  * (1 = camera rays only). Values stay linear HDR; clamping happens at output. */

@@ -41,7 +41,8 @@ namespace bvh {
 // Small scenes skip the BVH: linear loops are faster there. The rule weighs a
 // triangle as 4 spheres (the watertight triangle test costs several sphere tests) and
 // builds the BVH from a weight of 8 on. Measured on the 2-core build machine with
-// bench/twinray_bench --bvh on|off at 640x360, both backends (README, "The BVH and its threshold"):
+// bench/twinray_bench.cpp --bvh on|off at 640x360, both backends (docs/performance.md,
+// "The BVH and its threshold"):
 // 1-8 spheres break even within the noise, 16 spheres gain 1.3-1.7x, 16 triangles
 // 3.5-4x, the demo's 3 spheres + 4 triangles 1.7-2x.
 constexpr int kTriangleWeight = 4;

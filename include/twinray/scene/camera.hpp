@@ -1,4 +1,4 @@
-// Camera<T>: perspective or orthographic, set up as SEED.md describes.
+// Camera<T>: perspective or orthographic, set up as the original assignment describes.
 //   W = normalize(position - look_at), U = normalize(up x W), V = W x U
 //   view plane: height viewplane_height, width = height x width/height (pixels)
 //   upper left = (position - W focal) - viewplane_u/2 - viewplane_v/2, viewplane_v
