@@ -1,6 +1,7 @@
-// The `animation` section of a scene file (docs/movies.md), read into Animation<T>
-// (scene/animation.hpp) with the loader's strict checks: every key known, every value
-// typed and in range, every target existing, or twinray::Error(InvalidInput) with
+// The `animation` key of a scene file (docs/scene-format.md, "The `animation` key";
+// docs/movies.md for `twinray movie`), read into Animation<T> (scene/animation.hpp)
+// with the loader's strict checks: every key known, every value typed and in range,
+// every target existing, or twinray::Error(InvalidInput) with
 // `FILE: JSON.PATH: problem`, e.g.
 //   movie.json: animation.paths[2].radius: must be > 0, got -1
 //
@@ -14,15 +15,24 @@
 //         "keys": [ { "frame": 0, "position": [-1, 0, 0] },
 //                   { "frame": 60, "position": [1, 0, 0] } ] } ] }
 //
+// The readers take the JsonReader<T> (io/json_read.hpp) of the file being read.
 // load_scene() (io/scene_json.hpp) checks the section as it reads the file; code that
-// plays it calls parse_animation(file) and scene_at_frame() / apply_frame().
+// plays it calls parse_animation(file) there, then animate() (scene/animation.hpp), or
+// apply_frame() there for one frame.
 #pragma once
 
+#include <cmath>
+#include <cstddef>
 #include <string>
+#include <utility>
 #include <vector>
 
-#include <twinray/io/scene_json.hpp>
+#include <glm/geometric.hpp>
+
 #include <twinray/scene/animation.hpp>
+#include <twinray/scene/camera.hpp>
+#include <twinray/scene/scene.hpp>
+#include <twinray/io/json_read.hpp>
 
 namespace twinray {
 namespace io {
@@ -34,7 +44,7 @@ constexpr long long kMaxAnimationFrames = 10000000;
 
 // "objects[3]" or "lights[0]".
 template <class T>
-Target read_target(const SceneReader<T>& r, const Json& v, const std::string& path,
+Target read_target(const JsonReader<T>& r, const Json& v, const std::string& path,
                    const Scene<T>& scene) {
   std::string s = r.string(v, path);
   Target t;
@@ -66,10 +76,10 @@ Target read_target(const SceneReader<T>& r, const Json& v, const std::string& pa
 // An orbit's keys; radius, height and start_angle not given come from where `through`
 // is (the camera's position, the targets' anchor).
 template <class T>
-Orbit<T> read_orbit(const SceneReader<T>& r, const Json& o, const std::string& path,
+Orbit<T> read_orbit(const JsonReader<T>& r, const Json& o, const std::string& path,
                     const glm::vec<3, T>& default_center, const glm::vec<3, T>& default_axis,
                     const glm::vec<3, T>& through, const std::string& through_name) {
-  using R = SceneReader<T>;
+  using R = JsonReader<T>;
   Orbit<T> orbit;
   const Json* center = r.optional(o, "center");
   orbit.center = center ? r.vector3(*center, R::key_path(path, "center")) : default_center;
@@ -99,8 +109,8 @@ Orbit<T> read_orbit(const SceneReader<T>& r, const Json& o, const std::string& p
 }
 
 template <class T>
-Keyframes<T> read_keyframes(const SceneReader<T>& r, const Json& o, const std::string& path) {
-  using R = SceneReader<T>;
+Keyframes<T> read_keyframes(const JsonReader<T>& r, const Json& o, const std::string& path) {
+  using R = JsonReader<T>;
   Keyframes<T> k;
   std::string kpath = R::key_path(path, "keys");
   const Json& keys = r.require(o, path, "keys");
@@ -129,9 +139,9 @@ Keyframes<T> read_keyframes(const SceneReader<T>& r, const Json& o, const std::s
 
 // The section, checked against the scene already read from the same file.
 template <class T>
-Animation<T> read_animation(const SceneReader<T>& r, const Json& a, const Scene<T>& scene,
+Animation<T> read_animation(const JsonReader<T>& r, const Json& a, const Scene<T>& scene,
                             const Camera<T>& camera) {
-  using R = SceneReader<T>;
+  using R = JsonReader<T>;
   const std::string path = "animation";
   r.require_object(a, path);
   r.check_keys(a, path, {"frames", "fps", "camera", "paths"});
@@ -209,28 +219,14 @@ Animation<T> read_animation(const SceneReader<T>& r, const Json& a, const Scene<
 
 }  // namespace detail
 
-// The file's animation; a file without an `animation` key gets InvalidInput.
+// Reads an `animation` object, checked against the scene and camera read from the
+// same file; `file` names it in messages. parse_animation(const SceneFile<T>&)
+// (io/scene_json.hpp) calls this.
 template <class T>
-Animation<T> parse_animation(const SceneFile<T>& file) {
-  if (file.animation.is_null())
-    throw invalid_input(file.path + ": has no animation (no \"animation\" key)");
-  SceneLimits limits;
-  detail::SceneReader<T> reader(file.path, "", limits);
-  return detail::read_animation(reader, file.animation, file.scene, file.camera);
-}
-
-// Replaces the file's scene and camera with those of frame `frame`, which must be one
-// of the animation's frames (0 to frames - 1).
-template <class T>
-void apply_frame(SceneFile<T>& file, long long frame) {
-  Animation<T> anim = parse_animation(file);
-  if (frame < 0 || frame >= anim.frames)
-    throw invalid_input(file.path + ": animation.frames: frame " + std::to_string(frame) +
-                        " is not in the animation, which has " + std::to_string(anim.frames) +
-                        " frames (0 to " + std::to_string(anim.frames - 1) + ")");
-  Frame<T> f = animate(file.scene, file.camera, anim, frame);
-  file.scene = std::move(f.scene);
-  file.camera = f.camera;
+Animation<T> parse_animation(const nlohmann::ordered_json& animation, const std::string& file,
+                             const Scene<T>& scene, const Camera<T>& camera) {
+  detail::JsonReader<T> reader(file);
+  return detail::read_animation(reader, animation, scene, camera);
 }
 
 }  // namespace io

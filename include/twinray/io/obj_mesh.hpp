@@ -104,7 +104,7 @@ inline ObjCounts count_obj(const std::string& text) {
 
 // tinyobjloader turns the joint ids of `vw` lines (skin weights, which twinray does not
 // read) into int without a range check: undefined behaviour for `vw 1 2.5e10 1`, found
-// by fuzz/fuzz_obj_mesh (tests/fuzz/regressions/obj_mesh/). Such lines become comments.
+// by fuzz/fuzz_obj_mesh.cpp (tests/fuzz/regressions/obj_mesh/). Such lines become comments.
 inline std::string without_vertex_weights(const std::string& text) {
   std::string out = text;
   bool line_start = true;
