@@ -1,7 +1,8 @@
 # Drives the consumer project (tests/consumer/project) the way a user adopts twinray.
 #   cmake -DMODE=installed|subdirectory -DSOURCE_DIR=<twinray> -DWORK_DIR=<scratch>
 #         -DGENERATOR=<gen> [-DCXX=<compiler>] [-DHOST_PROCESSOR=x86_64] -P run_consumer.cmake
-# installed:    copy the source tree, configure, `cmake --install` it into a prefix,
+# installed:    copy the source tree, configure, `cmake --install` it into a prefix (the
+#               headers, the CMake package and bin/twinray, which must render alone),
 #               DELETE the copy and its build folder, check the installed files name
 #               neither, check find_package's version and component handling, then build
 #               the consumer with find_package() and its own flags (-O3 -march=native
@@ -44,7 +45,7 @@ if(MODE STREQUAL "installed")
   set(prefix ${WORK_DIR}/prefix)
   file(MAKE_DIRECTORY ${copy})
   file(COPY ${SOURCE_DIR}/CMakeLists.txt ${SOURCE_DIR}/include ${SOURCE_DIR}/kernels
-            ${SOURCE_DIR}/cmake DESTINATION ${copy})
+            ${SOURCE_DIR}/cmake ${SOURCE_DIR}/apps DESTINATION ${copy})
   step("configure twinray" 0 ${CMAKE_COMMAND} -S ${copy} -B ${WORK_DIR}/build -G ${GENERATOR}
        ${compiler_args} -DCMAKE_BUILD_TYPE=Release -DCMAKE_INSTALL_PREFIX=${prefix}
        -DTWINRAY_BUILD_TESTS=OFF -DTWINRAY_BUILD_EXAMPLES=OFF)
@@ -55,7 +56,7 @@ if(MODE STREQUAL "installed")
   # What must be installed, and that nothing installed points back at a tree.
   foreach(f include/twinray/twinray.hpp include/twinray/version.hpp
             include/twinray/generated/opencl_source.hpp include/twinray/device/prelude.h
-            share/twinray/kernels/render.cl)
+            share/twinray/kernels/render.cl bin/twinray)
     if(NOT EXISTS ${prefix}/${f})
       message(FATAL_ERROR "not installed: ${f}")
     endif()
@@ -76,6 +77,12 @@ if(MODE STREQUAL "installed")
       endif()
     endforeach()
   endforeach()
+  # The installed command runs without the source tree: it renders the demo scene.
+  step("installed twinray renders" 0 ${prefix}/bin/twinray render demo -o ${WORK_DIR}/cmd.png
+       --width 64 --height 48 --backend cpu --quiet)
+  if(NOT EXISTS ${WORK_DIR}/cmd.png)
+    message(FATAL_ERROR "the installed twinray command wrote no image")
+  endif()
   file(READ ${prefix}/include/twinray/generated/opencl_source.hpp kernel)
   string(FIND "${kernel}" "#include \"" at)
   if(NOT at EQUAL -1)
