@@ -1,6 +1,6 @@
 // The viewer's state and what its keys do, without a window: `twinray view` (SDL2,
 // view_window.cpp) turns each key press into a Key and calls ViewController; the tests
-// drive the same controller with synthetic keys (tests/animation/view_keys_test.cpp).
+// drive the same controller with synthetic keys (tests/apps/view_keys_test.cpp).
 //
 //   o          orthographic / perspective
 //   1 2 3      ambient / diffuse / specular term on or off

@@ -1,4 +1,4 @@
-// The benchmark runner behind `twinray bench` and bench/twinray_bench.cpp.cpp: renders a
+// The benchmark runner behind `twinray bench` and bench/twinray_bench.cpp: renders a
 // scene on a backend in a precision, one warm-up then R timed runs, and prints one CSV
 // line per scene x backend x precision (docs/command-line.md):
 //   scene,backend,precision,width,height,spp,primitives,build_ms,render_ms_min,

@@ -60,7 +60,7 @@ constexpr int kAllAxesBelow = 4096;  // larger nodes bin along their widest axis
 // both children's boxes there, each about as dear as a sphere test. At 1 the builder
 // split down to 1.19 spheres per leaf (1.7M nodes for 1e6 spheres); at 2 leaves hold
 // about 2.4 and the tree has half the nodes, builds 25-30% faster and renders no
-// slower (bench/twinray_bench, spheres_1e5/1e6 and mesh_1e4/1e6, costs 1, 1.5, 2, 3, 4
+// slower (bench/twinray_bench.cpp, spheres_1e5/1e6 and mesh_1e4/1e6, costs 1, 1.5, 2, 3, 4
 // interleaved on the noisy 2-core machine; 4 rendered slower).
 constexpr double kTraversalCost = 2.0;
 constexpr int kParallelMinPrims = 16384;  // smaller subtrees are built on the calling thread

@@ -125,7 +125,7 @@ inline std::vector<DeviceInfo> list_devices() {
           detail::device_string(d, CL_DEVICE_EXTENSIONS).find("cl_khr_fp64") != std::string::npos;
       // Test hook: TWINRAY_TEST_HIDE_FP64=1 makes every device report no double support,
       // so the "double asked of a device without fp64" path can be tested on PoCL, which
-      // has fp64 (tests/failure).
+      // has fp64 (tests/apps/failure_test.cpp).
       if (const char* hide = std::getenv("TWINRAY_TEST_HIDE_FP64"); hide && *hide == '1')
         info.has_fp64 = false;
       info.correctly_rounded_divide_sqrt =

@@ -24,11 +24,11 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "run_child.hpp"
+#include "support/subprocess.hpp"
 
 namespace fs = std::filesystem;
-using failure_test::Child;
-using failure_test::ChildOptions;
+using Child = test_support::Result;
+using ChildOptions = test_support::RunOptions;
 
 namespace {
 
@@ -48,6 +48,7 @@ std::string work_dir(const std::string& name) {
 // `twinray render demo -o OUT --quiet EXTRA...`, 32 x 32 unless EXTRA gives a size.
 Child render(const std::string& dir, const std::string& output,
              const std::vector<std::string>& extra, ChildOptions options = {}) {
+  options.timeout_s = 120;
   std::vector<std::string> argv = {TWINRAY_EXE, "render", "demo", "-o", output, "--quiet"};
   bool sized = false;
   for (const std::string& a : extra) sized = sized || a == "--width";
@@ -56,7 +57,7 @@ Child render(const std::string& dir, const std::string& output,
   // Program caches inside this test's folder: a cached program would hide build failures.
   options.env.push_back("TWINRAY_CACHE_DIR=" + dir + "/cache");
   options.env.push_back("POCL_CACHE_DIR=" + dir + "/pocl-cache");
-  return failure_test::run(argv, dir, options);
+  return test_support::run(argv, options);
 }
 
 // For INFO(): what a run said, shown when a check on it fails.
@@ -264,7 +265,7 @@ TEST_CASE("a full disk while writing: exit 1, the earlier file is intact, no tem
   CHECK(c.status == 1);
   CHECK(contains(c.err, folder + "/out.pfm: write failed"));
   CHECK((contains(c.err, "No space left on device") || contains(c.err, "File too large")));
-  CHECK(failure_test::slurp(folder + "/out.pfm") == earlier);
+  CHECK(test_support::read_file(folder + "/out.pfm") == earlier);
   std::vector<std::string> left = leftovers(folder, "out.pfm");
   CHECK(left.size() == 1);  // out.pfm itself, no out.pfm.tmp-*
 }

@@ -17,6 +17,8 @@
 
 #include <doctest/doctest.h>
 
+#include "support/subprocess.hpp"
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -25,65 +27,31 @@ const std::string kExe = TWINRAY_EXE;
 const std::string kScenes = TWINRAY_SCENES_DIR;
 const std::string kWork = TWINRAY_TEST_WORK_DIR;
 
-struct Run {
-  int status = -1;  // exit status; 128 + signal when killed
-  std::string out, err;
-};
+using Run = test_support::Result;
+using test_support::read_file;
 
-std::string read_file(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
-}
+std::string fresh(const std::string& name) { return test_support::fresh_folder(kWork, name); }
 
-std::string fresh(const std::string& name) {
-  std::string dir = kWork + "/" + name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
-// Starts argv in dir with stdout and stderr to files; `env` entries are set first.
-pid_t start(const std::vector<std::string>& argv, const std::string& dir,
-            const std::vector<std::pair<std::string, std::string>>& env = {}) {
-  pid_t pid = ::fork();
-  if (pid == 0) {
-    if (::chdir(dir.c_str()) != 0) ::_exit(125);
-    for (const auto& e : env) ::setenv(e.first.c_str(), e.second.c_str(), 1);
-    int out = ::open("stdout.txt", O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    int err = ::open("stderr.txt", O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    ::dup2(out, 1), ::dup2(err, 2);
-    ::close(out), ::close(err);
-    std::vector<char*> args;
-    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    ::execvp(args[0], args.data());
-    ::_exit(127);
-  }
-  return pid;
-}
-
-Run finish(pid_t pid, const std::string& dir) {
-  int status = 0;
-  ::waitpid(pid, &status, 0);
-  Run r;
-  r.status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  r.out = read_file(dir + "/stdout.txt");
-  r.err = read_file(dir + "/stderr.txt");
-  fs::remove(dir + "/stdout.txt");
-  fs::remove(dir + "/stderr.txt");
-  return r;
-}
-
+// Runs argv in dir; `env` entries are set first.
 Run run(const std::vector<std::string>& argv, const std::string& dir,
         const std::vector<std::pair<std::string, std::string>>& env = {}) {
-  return finish(start(argv, dir, env), dir);
+  test_support::RunOptions o;
+  o.cwd = dir;
+  for (const auto& e : env) o.env.push_back(e.first + "=" + e.second);
+  return test_support::run(argv, o);
 }
 
 Run twinray(std::vector<std::string> args, const std::string& dir,
             const std::vector<std::pair<std::string, std::string>>& env = {}) {
   args.insert(args.begin(), kExe);
-  Run r = run(args, dir, env);
-  return r;
+  return run(args, dir, env);
+}
+
+// Starts argv in dir, to be signalled and collected.
+test_support::Process start(const std::vector<std::string>& argv, const std::string& dir) {
+  test_support::RunOptions o;
+  o.cwd = dir;
+  return test_support::Process::start(argv, o);
 }
 
 bool contains(const std::string& s, const std::string& part) {
@@ -268,12 +236,12 @@ TEST_CASE("movie: killed halfway - the rerun keeps the rendered frames and makes
   Run whole = run(args, ref);
   REQUIRE(whole.status == 0);
 
-  pid_t pid = start(args, dir);
+  test_support::Process movie = start(args, dir);
   auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
   while (count_frames(dir + "/r.frames") < 3 && std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  ::kill(pid, SIGKILL);
-  Run killed = finish(pid, dir);
+  ::kill(movie.pid(), SIGKILL);
+  Run killed = movie.finish();
   CHECK(killed.status == 128 + SIGKILL);
   int kept = count_frames(dir + "/r.frames");
   CAPTURE(kept);
@@ -300,12 +268,12 @@ TEST_CASE(
                                    "--spp",     "4",         "--frames",
                                    "40",        "--backend", "cpu",
                                    "--threads", "1"};
-  pid_t pid = start(args, dir);
+  test_support::Process movie = start(args, dir);
   auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
   while (count_frames(dir + "/i.frames") < 2 && std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  ::kill(pid, SIGINT);
-  Run r = finish(pid, dir);
+  ::kill(movie.pid(), SIGINT);
+  Run r = movie.finish();
   CAPTURE(r.err);
   REQUIRE(r.status == 130);
   CHECK(contains(r.err, "interrupted; "));

@@ -11,14 +11,14 @@
 
 #include <twinray/io/pfm.hpp>
 
-#include "run_program.hpp"
+#include "support/subprocess.hpp"
 
-using cli_test::fresh_folder;
-using cli_test::listing;
-using cli_test::read_file;
-using cli_test::Result;
-using cli_test::run;
-using cli_test::write_file;
+using test_support::fresh_folder;
+using test_support::listing;
+using test_support::read_file;
+using test_support::Result;
+using test_support::run;
+using test_support::write_file;
 
 namespace {
 
@@ -365,7 +365,7 @@ TEST_CASE("status 2: bad command lines, refused before any work") {
     CHECK(contains(r.err, c.message));
     CHECK(listing(dir).empty());
   }
-  // --frame outside the scene's animation: refused, and says why (tests/animation has
+  // --frame outside the scene's animation: refused, and says why (tests/io/animation_test.cpp has
   // the frames that are in it).
   write_file(dir + "/anim.json",
              edit(R"("twinray": 1,)", R"("twinray": 1, "animation": { "frames": 10 },)"));
@@ -531,14 +531,14 @@ TEST_CASE("the progress bar: on a terminal only, and not with --quiet") {
   // Long enough that the bar is drawn at least once (it is drawn when rendering starts).
   std::vector<std::string> args = {kTwinray, "render",  "demo", "-o",       "x.png", "--backend",
                                    "cpu",    "--width", "64",   "--height", "64"};
-  Result tty = cli_test::run_on_terminal(args, dir);
+  Result tty = test_support::run_on_terminal(args, dir);
   CHECK(tty.status == 0);
   CHECK(contains(tty.out, "rendering 64x64 ["));
   CHECK(contains(tty.out, "\r\033[K"));
   CHECK(contains(tty.out, "x.png: shaded, 64x64"));
 
   args.push_back("--quiet");
-  Result quiet = cli_test::run_on_terminal(args, dir);
+  Result quiet = test_support::run_on_terminal(args, dir);
   CHECK(quiet.status == 0);
   CHECK(!contains(quiet.out, "rendering 64x64 ["));
   CHECK(contains(quiet.out, "x.png: shaded, 64x64"));

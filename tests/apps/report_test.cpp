@@ -2,8 +2,6 @@
 // table and the two plots, with every configuration on both backends bit-identical.
 #include <doctest/doctest.h>
 
-#include <sys/wait.h>
-
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -12,16 +10,19 @@
 #include <string>
 #include <vector>
 
+#include "support/subprocess.hpp"
+
 namespace {
 
-std::string read_file(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
-}
+using test_support::read_file;
 
-int run(const std::string& command) {
-  int status = std::system(command.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+// Runs twinray with `args`; what it printed (stdout, then stderr) goes to `log` when
+// one is given. Returns the exit status.
+int twinray(std::vector<std::string> args, const std::string& log = "") {
+  args.insert(args.begin(), TWINRAY_EXE);
+  test_support::Result r = test_support::run(args);
+  if (!log.empty()) test_support::write_file(log, r.out + r.err);
+  return r.status;
 }
 
 std::vector<std::string> split(const std::string& line) {
@@ -49,8 +50,7 @@ TEST_CASE("report: --quick writes the CSV, the Markdown table and the plots") {
   std::filesystem::remove_all(dir);
   const std::string log = std::string(TWINRAY_REPORT_WORK_DIR) + "/quick.log";
   std::filesystem::create_directories(TWINRAY_REPORT_WORK_DIR);
-  int status =
-      run(std::string(TWINRAY_EXE) + " report --quick --quiet -o " + dir + " > " + log + " 2>&1");
+  int status = twinray({"report", "--quick", "--quiet", "-o", dir}, log);
   INFO(read_file(log));
   REQUIRE(status == 0);
 
@@ -103,20 +103,23 @@ TEST_CASE("report: --quick writes the CSV, the Markdown table and the plots") {
 }
 
 TEST_CASE("report: a missing -o is a usage error") {
-  CHECK(run(std::string(TWINRAY_EXE) + " report --quick > /dev/null 2>&1") == 2);
+  CHECK(twinray({"report", "--quick"}) == 2);
 }
 
 TEST_CASE("render: --sampler, --seed and --adaptive, and the scene file's keys") {
   const std::string dir = std::string(TWINRAY_REPORT_WORK_DIR) + "/flags";
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
-  const std::string exe = std::string(TWINRAY_EXE) + " render ";
-  const std::string quiet = " --quiet --width 24 --height 16 > " + dir + "/log 2>&1";
-  CHECK(run(exe + "demo -o " + dir + "/a.pfm --sampler r2 --seed 3 --spp 2 --adaptive 8" + quiet) ==
-        0);
+  const std::string log = dir + "/log";
+  auto demo = [&](std::vector<std::string> args) {
+    args.insert(args.begin(), {"render", "demo", "--quiet", "--width", "24", "--height", "16"});
+    return twinray(args, log);
+  };
+  CHECK(demo({"-o", dir + "/a.pfm", "--sampler", "r2", "--seed", "3", "--spp", "2", "--adaptive",
+              "8"}) == 0);
   CHECK(read_file(dir + "/a.pfm").size() > 24 * 16 * 12);
-  CHECK(run(exe + "demo -o " + dir + "/b.pfm --sampler halton" + quiet) == 2);
-  CHECK(run(exe + "demo -o " + dir + "/b.pfm --spp 4 --adaptive 4" + quiet) == 2);
+  CHECK(demo({"-o", dir + "/b.pfm", "--sampler", "halton"}) == 2);
+  CHECK(demo({"-o", dir + "/b.pfm", "--spp", "4", "--adaptive", "4"}) == 2);
   CHECK(read_file(dir + "/log").find("--adaptive") != std::string::npos);
 
   auto scene = [&](const std::string& render) {
@@ -131,11 +134,11 @@ TEST_CASE("render: --sampler, --seed and --adaptive, and the scene file's keys")
   };
   scene(
       R"({"spp": 2, "sampler": "stratified", "seed": 7, "adaptive": {"spp": 8, "threshold": 0.1}})");
-  CHECK(run(exe + dir + "/s.json -o " + dir + "/c.pfm --quiet > " + dir + "/log 2>&1") == 0);
+  CHECK(twinray({"render", dir + "/s.json", "-o", dir + "/c.pfm", "--quiet"}, log) == 0);
   scene(R"({"spp": 4, "adaptive": {"spp": 4}})");
-  CHECK(run(exe + dir + "/s.json -o " + dir + "/c.pfm --quiet > " + dir + "/log 2>&1") == 2);
+  CHECK(twinray({"render", dir + "/s.json", "-o", dir + "/c.pfm", "--quiet"}, log) == 2);
   CHECK(read_file(dir + "/log").find("render.adaptive.spp") != std::string::npos);
   scene(R"({"sampler": "sobol"})");
-  CHECK(run(exe + dir + "/s.json -o " + dir + "/c.pfm --quiet > " + dir + "/log 2>&1") == 2);
+  CHECK(twinray({"render", dir + "/s.json", "-o", dir + "/c.pfm", "--quiet"}, log) == 2);
   CHECK(read_file(dir + "/log").find("render.sampler") != std::string::npos);
 }
