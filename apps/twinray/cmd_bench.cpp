@@ -1,6 +1,6 @@
-// `twinray bench [SCENE] [options]`: the timing table (docs/command-line.md), CSV on stdout, one line
-// per scene x backend x precision; the machine, OpenCL program builds and notes on
-// stderr. The runner and the built-in scenes are apps/twinray/bench/bench_runner.hpp and
+// `twinray bench [SCENE] [options]`: the timing table (docs/command-line.md), CSV on stdout, one
+// line per scene x backend x precision; the machine, OpenCL program builds and notes on stderr. The
+// runner and the built-in scenes are apps/twinray/bench/bench_runner.hpp and
 // bench/bench_scenes.hpp, shared with the bench/twinray_bench.cpp program.
 #include <iostream>
 #include <memory>
