@@ -30,7 +30,9 @@ const std::string kWork = TWINRAY_TEST_WORK_DIR;
 using Run = test_support::Result;
 using test_support::read_file;
 
-std::string fresh(const std::string& name) { return test_support::fresh_folder(kWork, name); }
+std::string fresh(const std::string& name) {
+  return test_support::fresh_folder(kWork, name);
+}
 
 // Runs argv in dir; `env` entries are set first.
 Run run(const std::vector<std::string>& argv, const std::string& dir,
@@ -281,7 +283,8 @@ TEST_CASE(
   CHECK_FALSE(fs::exists(dir + "/i.mp4"));
   int kept = count_frames(dir + "/i.frames");
   CHECK(kept >= 2);
-  CHECK_FALSE(fs::exists(dir + "/i.frames/encoding.mp4"));
+  for (const std::string& name : test_support::listing(dir + "/i.frames"))
+    CHECK_MESSAGE(name.rfind("encoding.mp4", 0) != 0, name);  // the partial MP4 is gone
 
   // Other settings: the kept frames are not used.
   args[10] = "1";  // --spp 1
@@ -291,4 +294,29 @@ TEST_CASE(
   CHECK(contains(other.err, "frames of another scene or other settings; rendering anew"));
   CHECK(contains(other.out, "40 rendered at"));
   CHECK_FALSE(contains(other.out, "kept"));
+}
+
+TEST_CASE("movie: a shared frames folder - another process's temporary files are left alone") {
+  std::string dir = fresh("movie_shared_folder");
+  fs::create_directories(dir + "/s.frames");
+  char host[256] = {};
+  REQUIRE(::gethostname(host, sizeof host - 1) == 0);
+  // A process of this host that has ended: its pid, once it is reaped.
+  test_support::Process gone = start({"true"}, dir);
+  const pid_t dead = gone.pid();
+  gone.finish();
+  const std::string here = std::string(".tmp-") + host + "-";
+  const std::string other_host = "frame_000001.png.tmp-another-host-" + std::to_string(::getpid());
+  const std::string running = "frame_000002.png" + here + std::to_string(::getpid());
+  const std::string left_behind = "frame_000003.png" + here + std::to_string(dead);
+  for (const std::string& name : {other_host, running, left_behind})
+    test_support::write_file(dir + "/s.frames/" + name, "half a PNG");
+  Run r = twinray({"movie", kScenes + "/movie1.json", "-o", "s.mp4", "--width", "64", "--height",
+                   "48", "--frames", "4", "--backend", "cpu"},
+                  dir);
+  CAPTURE(r.err);
+  REQUIRE(r.status == 0);
+  CHECK(fs::exists(dir + "/s.mp4"));
+  // The folder stays for the processes still writing there, with only their files.
+  CHECK(test_support::listing(dir + "/s.frames") == std::vector<std::string>{other_host, running});
 }

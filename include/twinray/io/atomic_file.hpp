@@ -5,11 +5,15 @@
 
 #include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
 #include <fcntl.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <twinray/core/error.hpp>
@@ -17,11 +21,49 @@
 namespace twinray {
 namespace io {
 
+// The suffix of this process's temporary files: ".tmp-HOST-PID". Naming the host as
+// well as the process lets processes on several hosts share a folder (a frames folder
+// on a network file system): each can tell its own leftovers from another's work.
+inline std::string temporary_suffix() {
+  char host[256] = {};
+  if (::gethostname(host, sizeof host - 1) != 0) host[0] = '\0';
+  return ".tmp-" + std::string(host) + "-" + std::to_string(::getpid());
+}
+
+// Whether a file name carries a temporary suffix (see above).
+inline bool is_temporary(const std::string& name) {
+  return name.find(".tmp-") != std::string::npos;
+}
+
+// Whether `name` is a temporary file that no running process will finish: one written
+// on this host by a process that is gone. A temporary of another host, or of a
+// process that still runs, is never taken for a leftover.
+inline bool is_abandoned_temporary(const std::string& name) {
+  const size_t at = name.rfind(".tmp-");
+  const size_t dash = name.rfind('-');
+  if (at == std::string::npos || dash == std::string::npos || dash < at + 5) return false;
+  const std::string host = name.substr(at + 5, dash - at - 5);
+  const std::string pid_text = name.substr(dash + 1);
+  if (pid_text.empty() || pid_text.find_first_not_of("0123456789") != std::string::npos)
+    return false;
+  char here[256] = {};
+  if (::gethostname(here, sizeof here - 1) != 0 || host != here) return false;
+  const long pid = std::strtol(pid_text.c_str(), nullptr, 10);
+  if (pid <= 0) return false;
+  if (::kill(static_cast<pid_t>(pid), 0) != 0) return errno == ESRCH;
+  // Still in the process table: a zombie (ended, not yet reaped) has state Z in
+  // /proc/PID/stat, after the command name in parentheses.
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
+  const size_t close = text.rfind(')');
+  return close != std::string::npos && close + 2 < text.size() && text[close + 2] == 'Z';
+}
+
 // Throws Error(RuntimeFailure) "PATH: what: reason" (e.g. "No space left on device").
-// Any thread may call it; the temporary is named after the process, so two threads of
-// one process must not write the same path at the same time.
+// Any thread may call it; the temporary is named after the host and the process, so
+// two threads of one process must not write the same path at the same time.
 inline void write_file_atomically(const std::string& path, const void* data, size_t size) {
-  std::string tmp = path + ".tmp-" + std::to_string(::getpid());
+  std::string tmp = path + temporary_suffix();
   auto fail = [&](const std::string& what) {
     int e = errno;
     ::unlink(tmp.c_str());

@@ -452,11 +452,22 @@ SceneFile<T> parse_scene(const std::string& text, const std::string& file,
   return out;
 }
 
+// The text of a scene file, size-checked before it is read: what load_scene() parses.
+// A program that reads the file in one place and parses it in several (the ranks of
+// an MPI job) passes it on to parse_scene(text, path, scene_folder(path)).
+inline std::string read_scene_text(const std::string& path, const SceneLimits& limits = {}) {
+  return detail::read_small_file(path, limits.max_file_bytes, "a scene file");
+}
+
+// The folder that relative `obj` paths of the scene file `path` are resolved against.
+inline std::string scene_folder(const std::string& path) {
+  return detail::parent_folder(path);
+}
+
 // Reads a scene file (size-checked before it is read).
 template <class T>
 SceneFile<T> load_scene(const std::string& path, const SceneLimits& limits = {}) {
-  std::string text = detail::read_small_file(path, limits.max_file_bytes, "a scene file");
-  return parse_scene<T>(text, path, detail::parent_folder(path), limits);
+  return parse_scene<T>(read_scene_text(path, limits), path, scene_folder(path), limits);
 }
 
 // The file's animation; a file without an `animation` key gets InvalidInput.
