@@ -1,6 +1,7 @@
 // The shared helpers of the `twinray` command (cli_common.hpp), compiled once for
 // float and double.
 #include "cli_common.hpp"
+#include "cluster.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -141,8 +142,12 @@ unsigned parse_terms(const std::string& list) {
 
 // ---- scenes ----
 
+std::string scene_arg_text(const std::string& scene) {
+  return scene == "demo" ? std::string() : twinray::io::read_scene_text(scene);
+}
+
 template <class T>
-twinray::io::SceneFile<T> load_scene_arg(const std::string& scene) {
+twinray::io::SceneFile<T> parse_scene_arg(const std::string& scene, const std::string& text) {
   if (scene == "demo") {
     twinray::demo::DemoSetup<T> d = twinray::demo::make_demo_scene<T>();
     twinray::io::SceneFile<T> f;
@@ -152,7 +157,12 @@ twinray::io::SceneFile<T> load_scene_arg(const std::string& scene) {
     f.path = "demo";
     return f;
   }
-  return twinray::io::load_scene<T>(scene);
+  return twinray::io::parse_scene<T>(text, scene, twinray::io::scene_folder(scene));
+}
+
+template <class T>
+twinray::io::SceneFile<T> load_scene_arg(const std::string& scene) {
+  return parse_scene_arg<T>(scene, scene_arg_text(scene));
 }
 
 template <class T>
@@ -204,10 +214,88 @@ void apply_shared_options(twinray::io::SceneFile<T>& f, const SharedOptions& o) 
 }
 
 template <class T>
-twinray::io::SceneFile<T> prepare_scene(const std::string& scene, const SharedOptions& o) {
-  twinray::io::SceneFile<T> f = load_scene_arg<T>(scene);
+twinray::io::SceneFile<T> prepare_scene(const std::string& scene, const std::string& text,
+                                        const SharedOptions& o) {
+  twinray::io::SceneFile<T> f = parse_scene_arg<T>(scene, text);
   apply_shared_options(f, o);
   return f;
+}
+
+template <class T>
+twinray::io::SceneFile<T> prepare_scene(const std::string& scene, const SharedOptions& o) {
+  return prepare_scene<T>(scene, scene_arg_text(scene), o);
+}
+
+// ---- the key of what decides the pixels ----
+
+namespace {
+// FNV-1a over the bytes of plain values.
+class Hasher {
+ public:
+  void bytes(const void* data, size_t n) {
+    const unsigned char* p = static_cast<const unsigned char*>(data);
+    for (size_t i = 0; i < n; ++i) h_ = (h_ ^ p[i]) * 1099511628211ull;
+  }
+  template <class V>
+  void value(const V& v) {
+    static_assert(std::is_trivially_copyable<V>::value, "plain data only");
+    bytes(&v, sizeof v);
+  }
+  void text(const std::string& s) {
+    value(s.size());
+    bytes(s.data(), s.size());
+  }
+  std::string hex() const {
+    std::ostringstream os;
+    os << std::hex << std::setw(16) << std::setfill('0') << h_;
+    return os.str();
+  }
+
+ private:
+  unsigned long long h_ = 1469598103934665603ull;  // FNV-1a, 64 bits
+};
+
+}  // namespace
+
+template <class T>
+std::string pixels_key(const twinray::io::SceneFile<T>& f, const std::string& precision) {
+  Hasher h;
+  h.text("twinray movie frames v1");
+  h.text(precision);
+  const twinray::Camera<T>& c = f.camera;
+  h.value(c.projection), h.value(c.position), h.value(c.look_at), h.value(c.up);
+  h.value(c.focal_length.has_value()), h.value(c.focal_length.value_or(T(0)));
+  h.value(c.viewplane_height), h.value(c.width), h.value(c.height);
+  const twinray::RenderOptions& o = f.options;
+  h.value(o.spp), h.value(o.max_depth), h.value(o.shadows), h.value(o.glaze), h.value(o.terms);
+  h.value(o.sampler), h.value(o.seed), h.value(o.adaptive_spp), h.value(o.adaptive_threshold);
+  h.value(o.output);
+  h.value(f.scene.background);
+  for (const auto& m : f.scene.materials)
+    h.value(m.color), h.value(m.ka), h.value(m.kd), h.value(m.ks), h.value(m.shininess),
+        h.value(m.glaze);
+  for (const auto& l : f.scene.lights) h.value(l.position), h.value(l.intensity), h.value(l.color);
+  for (const auto& object : f.scene.objects) {
+    h.value(object.index());
+    std::visit(
+        [&](const auto& o) {
+          using O = std::decay_t<decltype(o)>;
+          h.value(o.material);
+          if constexpr (std::is_same<O, twinray::Sphere<T>>::value) {
+            h.value(o.center), h.value(o.radius);
+          } else if constexpr (std::is_same<O, twinray::Plane<T>>::value) {
+            h.value(o.point), h.value(o.normal);
+          } else if constexpr (std::is_same<O, twinray::Triangle<T>>::value) {
+            h.value(o.vertices);
+          } else {
+            h.bytes(o.vertices.data(), o.vertices.size() * sizeof(o.vertices[0]));
+            h.bytes(o.triangles.data(), o.triangles.size() * sizeof(o.triangles[0]));
+          }
+        },
+        object);
+  }
+  h.text(f.animation.dump());
+  return h.hex();
 }
 
 // ---- outputs ----
@@ -301,7 +389,7 @@ void Progress::set_label(const std::string& label) {
 void Progress::note(const std::string& line) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (enabled_ && !finished_) std::fputs("\r\033[K", stderr);
-  std::fprintf(stderr, "twinray: %s\n", line.c_str());
+  std::fprintf(stderr, "%s%s\n", cluster::message_prefix().c_str(), line.c_str());
   if (enabled_ && !finished_) draw_locked();
   std::fflush(stderr);
 }
@@ -376,6 +464,9 @@ std::string summary_line(const std::string& output, int width, int height, int s
   template twinray::io::SceneFile<T> load_scene_arg<T>(const std::string&);                      \
   template void apply_shared_options<T>(twinray::io::SceneFile<T>&, const SharedOptions&);       \
   template twinray::io::SceneFile<T> prepare_scene<T>(const std::string&, const SharedOptions&); \
+  template twinray::io::SceneFile<T> prepare_scene<T>(const std::string&, const std::string&,    \
+                                                      const SharedOptions&);                     \
+  template std::string pixels_key<T>(const twinray::io::SceneFile<T>&, const std::string&);      \
   template void write_image<T>(const std::string&, const twinray::Image<T>&);
 TWINRAY_CLI_INSTANTIATE(float)
 TWINRAY_CLI_INSTANTIATE(double)

@@ -90,6 +90,20 @@ void apply_shared_options(twinray::io::SceneFile<T>& file, const SharedOptions& 
 template <class T>
 twinray::io::SceneFile<T> prepare_scene(const std::string& scene, const SharedOptions& options);
 
+// The same in two steps, for a file read in one place and parsed in several (the ranks
+// of an MPI job): the text of SCENE ("" for `demo`), then the scene prepared from it.
+std::string scene_arg_text(const std::string& scene);
+template <class T>
+twinray::io::SceneFile<T> prepare_scene(const std::string& scene, const std::string& text,
+                                        const SharedOptions& options);
+
+// A 64-bit hash (16 hex digits) of everything that decides the pixels of the prepared
+// scene file's frames in `precision`: camera, options, materials, lights, geometry and
+// the animation. It names a movie's frames folder and is what the ranks of an MPI job
+// compare before they render.
+template <class T>
+std::string pixels_key(const twinray::io::SceneFile<T>& file, const std::string& precision);
+
 // Calls f(T{}) with T the --precision type and returns its result.
 template <class F>
 int with_precision(const SharedOptions& options, F&& f) {

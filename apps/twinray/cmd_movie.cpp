@@ -9,6 +9,10 @@
 // encoded into the frames folder and renamed into place when ffmpeg succeeded: OUT.mp4
 // is complete or absent. The frames folder goes once the movie is done, unless
 // --keep-frames.
+//
+// In an MPI job (docs/distributed.md) every rank renders frames that rank 0 hands out
+// one at a time (cluster.hpp); rank 0 alone keeps the folder and feeds the encoder,
+// from the folder and in frame order, so the MP4 is the one-process MP4.
 #include <dirent.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -23,6 +27,7 @@
 #include <iostream>
 #include <memory>
 #include <sstream>
+#include <vector>
 
 #include <stb_image.h>
 #include <twinray/scene/validate.hpp>
@@ -32,6 +37,7 @@
 #include <twinray/io/png.hpp>
 
 #include "cli_common.hpp"
+#include "cluster.hpp"
 #include "command.hpp"
 
 namespace twinray_cli {
@@ -54,73 +60,6 @@ extern "C" void on_interrupt(int) {
   g_interrupted.store(true);
   std::signal(SIGINT, SIG_DFL);  // a second Ctrl-C ends twinray at once
   std::signal(SIGTERM, SIG_DFL);
-}
-
-// ---- the key of a frames folder: everything that decides the pixels of frame K ----
-class Hasher {
- public:
-  void bytes(const void* data, size_t n) {
-    const unsigned char* p = static_cast<const unsigned char*>(data);
-    for (size_t i = 0; i < n; ++i) h_ = (h_ ^ p[i]) * 1099511628211ull;
-  }
-  template <class V>
-  void value(const V& v) {
-    static_assert(std::is_trivially_copyable<V>::value, "plain data only");
-    bytes(&v, sizeof v);
-  }
-  void text(const std::string& s) {
-    value(s.size());
-    bytes(s.data(), s.size());
-  }
-  std::string hex() const {
-    std::ostringstream os;
-    os << std::hex << std::setw(16) << std::setfill('0') << h_;
-    return os.str();
-  }
-
- private:
-  unsigned long long h_ = 1469598103934665603ull;  // FNV-1a, 64 bits
-};
-
-template <class T>
-std::string frames_key(const twinray::io::SceneFile<T>& f, const std::string& precision) {
-  Hasher h;
-  h.text("twinray movie frames v1");
-  h.text(precision);
-  const twinray::Camera<T>& c = f.camera;
-  h.value(c.projection), h.value(c.position), h.value(c.look_at), h.value(c.up);
-  h.value(c.focal_length.has_value()), h.value(c.focal_length.value_or(T(0)));
-  h.value(c.viewplane_height), h.value(c.width), h.value(c.height);
-  const twinray::RenderOptions& o = f.options;
-  h.value(o.spp), h.value(o.max_depth), h.value(o.shadows), h.value(o.glaze), h.value(o.terms);
-  h.value(o.sampler), h.value(o.seed), h.value(o.adaptive_spp), h.value(o.adaptive_threshold);
-  h.value(o.output);
-  h.value(f.scene.background);
-  for (const auto& m : f.scene.materials)
-    h.value(m.color), h.value(m.ka), h.value(m.kd), h.value(m.ks), h.value(m.shininess),
-        h.value(m.glaze);
-  for (const auto& l : f.scene.lights) h.value(l.position), h.value(l.intensity), h.value(l.color);
-  for (const auto& object : f.scene.objects) {
-    h.value(object.index());
-    std::visit(
-        [&](const auto& o) {
-          using O = std::decay_t<decltype(o)>;
-          h.value(o.material);
-          if constexpr (std::is_same<O, twinray::Sphere<T>>::value) {
-            h.value(o.center), h.value(o.radius);
-          } else if constexpr (std::is_same<O, twinray::Plane<T>>::value) {
-            h.value(o.point), h.value(o.normal);
-          } else if constexpr (std::is_same<O, twinray::Triangle<T>>::value) {
-            h.value(o.vertices);
-          } else {
-            h.bytes(o.vertices.data(), o.vertices.size() * sizeof(o.vertices[0]));
-            h.bytes(o.triangles.data(), o.triangles.size() * sizeof(o.triangles[0]));
-          }
-        },
-        object);
-  }
-  h.text(f.animation.dump());
-  return h.hex();
 }
 
 // ---- files ----
@@ -167,23 +106,24 @@ class FrameStore {
                            dir_ + ": cannot create the frames folder: " + std::strerror(errno));
     std::string key_path = dir_ + "/" + kKeyFile;
     std::string old_key = exists(key_path) ? read_file(key_path) : "";
-    std::vector<std::string> ours = own_files();
+    // Temporary files are another process's work in progress unless that process is
+    // gone (io/atomic_file.hpp); only those left behind are removed.
+    std::vector<std::string> frames, leftovers;
+    for (const std::string& name : own_files()) {
+      if (!twinray::io::is_temporary(name)) {
+        if (name.rfind("frame_", 0) == 0) frames.push_back(name);
+      } else if (twinray::io::is_abandoned_temporary(name)) {
+        leftovers.push_back(name);
+      }
+    }
+    remove(leftovers);
     if (old_key != key_ + "\n") {
-      int frames = 0;
-      for (const std::string& name : ours)
-        if (name.rfind("frame_", 0) == 0 && name.find(".tmp-") == std::string::npos) ++frames;
-      if (frames > 0)
-        progress.note(dir_ + ": " + std::to_string(frames) +
+      if (!frames.empty())
+        progress.note(dir_ + ": " + std::to_string(frames.size()) +
                       " frames of another scene or other settings; rendering anew");
-      remove(ours);
+      remove(frames);
       std::string nl = key_ + "\n";
       twinray::io::write_file_atomically(key_path, nl.data(), nl.size());
-    } else {
-      // Only what an interrupted write left behind.
-      std::vector<std::string> partial;
-      for (const std::string& name : ours)
-        if (name.find(".tmp-") != std::string::npos || name == kEncoding) partial.push_back(name);
-      remove(partial);
     }
   }
 
@@ -202,15 +142,30 @@ class FrameStore {
     return ok;
   }
 
-  void save(long long k, const std::vector<unsigned char>& png) const {
-    twinray::io::write_file_atomically(dir_ + "/" + frame_name(k), png);
+  // Whether frame k is there as a PNG of width x height (its header is read).
+  bool has(long long k, int width, int height) const {
+    std::string bytes = read_file(dir_ + "/" + frame_name(k));
+    int w = 0, h = 0, n = 0;
+    return !bytes.empty() &&
+           stbi_info_from_memory(reinterpret_cast<const unsigned char*>(bytes.data()),
+                                 static_cast<int>(bytes.size()), &w, &h, &n) &&
+           w == width && h == height;
   }
 
-  std::string encoding_path() const { return dir_ + "/" + kEncoding; }
+  void save(long long k, const std::string& png) const {
+    twinray::io::write_file_atomically(dir_ + "/" + frame_name(k), png.data(), png.size());
+  }
 
-  // Removes the folder (only twinray's own files; a folder with others stays).
+  // The MP4 while ffmpeg writes it: a temporary of this process, renamed into place.
+  std::string encoding_path() const { return dir_ + "/" + kEncoding + encoding_suffix_; }
+
+  // Removes the frames and the key, and the folder when nothing else is left in it
+  // (another process's temporary files stay).
   void discard() {
-    remove(own_files());
+    std::vector<std::string> done;
+    for (const std::string& name : own_files())
+      if (!twinray::io::is_temporary(name)) done.push_back(name);
+    remove(done);
     ::rmdir(dir_.c_str());
   }
 
@@ -238,6 +193,7 @@ class FrameStore {
   }
 
   std::string dir_, key_;
+  std::string encoding_suffix_ = twinray::io::temporary_suffix();
 };
 
 std::string format_seconds(double s) {
@@ -276,20 +232,11 @@ void check_movie_output(const std::string& path) {
   if (is_directory(path)) usage_error("-o " + path + ": is a folder");
 }
 
+// Refuses a frame range outside the movie, and checks every frame's camera before the
+// first frame renders.
 template <class T>
-int make_movie(const MovieArgs& a, const std::string& ffmpeg) {
-  using Clock = std::chrono::steady_clock;
-  const auto t0 = Clock::now();
-  twinray::io::SceneFile<T> f = prepare_scene<T>(a.scene, a.shared);
-  if (f.animation.is_null())
-    usage_error(f.path +
-                " has no animation (no \"animation\" key), so there is no movie to "
-                "make; docs/scene-format.md describes the key");
-  twinray::Animation<T> anim = twinray::io::parse_animation(f);
-  const long long frames = a.frames > 0 ? a.frames : anim.frames;
-  const double fps = a.fps > 0 ? a.fps : anim.fps;
-  const long long from = a.from >= 0 ? a.from : 0;
-  const long long to = a.to >= 0 ? a.to : frames - 1;
+void check_frames(const twinray::io::SceneFile<T>& f, const twinray::Animation<T>& anim,
+                  long long frames, long long from, long long to) {
   const std::string range_note = "the movie has " + std::to_string(frames) + " frames (0 to " +
                                  std::to_string(frames - 1) + ")";
   if (from >= frames) usage_error("--from " + std::to_string(from) + ": " + range_note);
@@ -298,32 +245,60 @@ int make_movie(const MovieArgs& a, const std::string& ffmpeg) {
   if (from > to)
     usage_error("--from " + std::to_string(from) + " --to " + std::to_string(to) +
                 ": the first frame is after the last");
-  // Every frame's camera is checked before the first one renders.
+  if (!anim.camera) return;
+  twinray::Animation<T> camera_only = anim;
+  camera_only.paths.clear();
   for (long long k = from; k <= to; ++k) {
     twinray::Camera<T> c = f.camera;
     twinray::Scene<T> none;
-    if (anim.camera) {
-      twinray::Animation<T> camera_only = anim;
-      camera_only.paths.clear();
-      twinray::animate_into(none, f.camera, camera_only, k, none, c);
-    }
+    twinray::animate_into(none, f.camera, camera_only, k, none, c);
     try {
       twinray::validate(c);
     } catch (const twinray::Error& e) {
       usage_error(f.path + ": animation.camera: at frame " + std::to_string(k) + ": " + e.what());
     }
-    if (!anim.camera) break;
   }
+}
 
+template <class T>
+int make_movie(const MovieArgs& a, const std::string& text, const std::string& ffmpeg) {
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  twinray::io::SceneFile<T> f;
+  twinray::Animation<T> anim;
+  long long frames = 0, from = 0, to = 0;
+  double fps = 0;
+  // Every rank reads the scene and checks the frames; the ranks must agree on all of it.
+  cluster::agree(
+      [&] {
+        f = prepare_scene<T>(a.scene, text, a.shared);
+        if (f.animation.is_null())
+          usage_error(f.path +
+                      " has no animation (no \"animation\" key), so there is no movie to "
+                      "make; docs/scene-format.md describes the key");
+        anim = twinray::io::parse_animation(f);
+        frames = a.frames > 0 ? a.frames : anim.frames;
+        fps = a.fps > 0 ? a.fps : anim.fps;
+        from = a.from >= 0 ? a.from : 0;
+        to = a.to >= 0 ? a.to : frames - 1;
+        check_frames(f, anim, frames, from, to);
+        char shape[96];
+        std::snprintf(shape, sizeof shape, "-%lld-%lld-%lld-%.17g", frames, from, to, fps);
+        return pixels_key(f, a.shared.precision) + shape;
+      },
+      "the scene, the frames or the options that decide the pixels");
+
+  const bool speaks = cluster::rank() == 0;
   const int width = f.camera.width, height = f.camera.height;
   const long long count = to - from + 1;
-  Progress progress(a.output, count, Progress::wanted(a.shared.quiet));
-  FrameStore store(frames_folder(a.output), frames_key(f, a.shared.precision));
-  store.open(progress);
-
+  Progress progress(a.output, count, speaks && Progress::wanted(a.shared.quiet));
+  std::unique_ptr<FrameStore> store;
+  std::unique_ptr<twinray::io::FfmpegEncoder> encoder;
+  // Rank 0 keeps the frames folder and feeds the encoder; a Ctrl-C there finishes the
+  // frames under way and keeps them.
   g_interrupted.store(false);
-  auto old_int = std::signal(SIGINT, on_interrupt);
-  auto old_term = std::signal(SIGTERM, on_interrupt);
+  auto old_int = std::signal(SIGINT, speaks ? on_interrupt : SIG_DFL);
+  auto old_term = std::signal(SIGTERM, speaks ? on_interrupt : SIG_DFL);
   struct RestoreSignals {
     void (*i)(int);
     void (*t)(int);
@@ -332,65 +307,94 @@ int make_movie(const MovieArgs& a, const std::string& ffmpeg) {
       std::signal(SIGTERM, t);
     }
   } restore{old_int, old_term};
+  std::vector<long long> missing;
+  std::vector<char> on_disk(static_cast<size_t>(count), 0);
+  if (speaks) {
+    store =
+        std::make_unique<FrameStore>(frames_folder(a.output), pixels_key(f, a.shared.precision));
+    store->open(progress);
+    for (long long k = from; k <= to; ++k) {
+      if (store->has(k, width, height))
+        on_disk[static_cast<size_t>(k - from)] = 1;
+      else
+        missing.push_back(k);
+    }
+    encoder = std::make_unique<twinray::io::FfmpegEncoder>(ffmpeg, store->encoding_path(), width,
+                                                           height, fps);
+  }
 
-  twinray::io::FfmpegEncoder encoder(ffmpeg, store.encoding_path(), width, height, fps);
   twinray::io::SceneFile<T> frame = f;
   frame.options.log = [&progress](const std::string& line) { progress.note(line); };
   SceneRenderer<T> renderer;
   const bool moves_objects = twinray::moves_objects(anim);
   twinray::RenderInfo info;
-  std::string device;
-  long long kept = 0, rendered = 0;
-  double render_s = 0;
+  // Renders frame k (on any rank) to the PNG bytes the frames folder keeps.
+  auto render_frame = [&](long long k) {
+    twinray::animate_into(f.scene, f.camera, anim, k, frame.scene, frame.camera);
+    // One backend for the whole movie: the scene is packed again only for the frames
+    // of an animation that moves objects.
+    twinray::Image<T> image = renderer.render(frame, &info, moves_objects ? k : 0);
+    std::vector<unsigned char> png = twinray::io::encode_png(image);
+    return std::string(png.begin(), png.end());
+  };
+
+  // The encoder takes the frames in order from the frames folder: those kept from an
+  // earlier run, and the new ones once they are there, from whichever rank. Nothing
+  // waits in memory, however far ahead of the encoder the ranks get.
+  long long next = from, rendered = 0;
   std::vector<unsigned char> rgb;
   const auto start = Clock::now();
-  for (long long k = from; k <= to; ++k) {
-    if (g_interrupted.load()) break;
-    if (!store.load(k, width, height, rgb)) {
-      twinray::animate_into(f.scene, f.camera, anim, k, frame.scene, frame.camera);
-      auto r0 = Clock::now();
-      // One backend for the whole movie: the scene is packed again only for the
-      // frames of an animation that moves objects.
-      twinray::Image<T> image = renderer.render(frame, &info, moves_objects ? k : 0);
-      render_s += std::chrono::duration<double>(Clock::now() - r0).count();
-      device = std::string(twinray::to_string(info.backend)) + " (" + info.device + ")";
-      rgb = twinray::io::to_rgb8(image);
-      std::vector<unsigned char> png = twinray::io::encode_png(image);
-      store.save(k, png);
-      ++rendered;
-    } else {
-      ++kept;
+  auto encode_ready = [&] {
+    for (; next <= to && on_disk[static_cast<size_t>(next - from)]; ++next) {
+      if (!store->load(next, width, height, rgb))
+        throw twinray::Error(twinray::ErrorKind::RuntimeFailure,
+                             store->dir() + "/" + frame_name(next) +
+                                 ": cannot read the frame back; remove it and run again");
+      encoder->write_frame(rgb.data(), width, height);
+      long long done = next - from + 1;
+      double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+      double rate = elapsed > 0 ? static_cast<double>(done) / elapsed : 0;
+      std::ostringstream label;
+      label << a.output << std::fixed << std::setprecision(1) << "  " << rate << " frames/s, "
+            << format_seconds(rate > 0 ? static_cast<double>(count - done) / rate : -1) << " left";
+      progress.set_label(label.str());
+      progress.set(done);
     }
-    encoder.write_frame(rgb.data(), width, height);
-    long long done = k - from + 1;
-    double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
-    double rate = elapsed > 0 ? static_cast<double>(done) / elapsed : 0;
-    std::ostringstream label;
-    label << a.output << std::fixed << std::setprecision(1) << "  " << rate << " frames/s, "
-          << format_seconds(rate > 0 ? static_cast<double>(count - done) / rate : -1) << " left";
-    progress.set_label(label.str());
-    progress.set(done);
-  }
-  if (g_interrupted.load()) {
-    encoder.abort();
+  };
+  if (speaks) encode_ready();
+  cluster::WorkSummary summary = cluster::share_work(
+      missing, render_frame,
+      [&](long long k, std::string&& png) {
+        store->save(k, png);
+        on_disk[static_cast<size_t>(k - from)] = 1;
+        ++rendered;
+        encode_ready();
+      },
+      &g_interrupted);
+  if (!speaks) return kExitOk;
+  const double render_s = std::chrono::duration<double>(Clock::now() - start).count();
+  const long long kept = count - static_cast<long long>(missing.size());
+  if (summary.interrupted) {
+    encoder->abort();
     progress.finish();
     std::cerr << "twinray: interrupted; " << (kept + rendered) << " of " << count
-              << " frames are kept in " << store.dir()
+              << " frames are kept in " << store->dir()
               << "/; run the same command again to continue from there\n";
     return 130;
   }
+  encode_ready();
   progress.set_label("encoding " + a.output);
-  encoder.finish();
+  encoder->finish();
   // The movie is complete: make it durable, then put it in place.
-  int fd = ::open(store.encoding_path().c_str(), O_RDONLY);
+  int fd = ::open(store->encoding_path().c_str(), O_RDONLY);
   if (fd >= 0) {
     ::fsync(fd);
     ::close(fd);
   }
-  if (::rename(store.encoding_path().c_str(), a.output.c_str()) != 0)
+  if (::rename(store->encoding_path().c_str(), a.output.c_str()) != 0)
     throw twinray::Error(twinray::ErrorKind::RuntimeFailure,
                          a.output + ": cannot write: " + std::strerror(errno));
-  if (!a.keep_frames) store.discard();
+  if (!a.keep_frames) store->discard();
   progress.finish();
   double total_s = std::chrono::duration<double>(Clock::now() - t0).count();
   std::ostringstream s;
@@ -405,27 +409,35 @@ int make_movie(const MovieArgs& a, const std::string& ffmpeg) {
   std::snprintf(rate, sizeof rate, "%g", fps);
   s << " at " << rate << " fps, H.264, " << frame.options.spp << " spp, " << a.shared.precision;
   if (rendered > 0)
-    s << ", backend " << device << ", " << rendered << " rendered at " << std::setprecision(2)
+    s << ", backend " << twinray::to_string(info.backend) << " (" << info.device << "), "
+      << rendered << " rendered at " << std::setprecision(2)
       << static_cast<double>(rendered) / render_s << " frames/s" << std::setprecision(1);
-  if (kept > 0) s << ", " << kept << " kept from " << store.dir() << "/";
+  const std::string ranks = cluster::ranks_note(summary, "frames");
+  if (!ranks.empty()) s << ", " << ranks;
+  if (kept > 0) s << ", " << kept << " kept from " << store->dir() << "/";
   s << ", total " << total_s << " s";
   std::cout << s.str() << std::endl;
   return kExitOk;
 }
 
 int run_movie(const MovieArgs& a) {
-  // Everything the command line can get wrong, and a missing ffmpeg, are refused
-  // before any work.
-  check_movie_output(a.output);
-  if (a.shared.frame >= 0) usage_error("--frame: movie renders a range; use --from and --to");
+  // Rank 0 refuses what the command line gets wrong, and a missing ffmpeg, before any
+  // work, then reads the scene for every rank.
   std::string ffmpeg;
-  try {
-    ffmpeg = twinray::io::find_ffmpeg();
-  } catch (const twinray::Error& e) {
-    std::cerr << "twinray: " << e.what() << "\n";
-    return exit_status(e.kind());
-  }
-  return with_precision(a.shared, [&](auto zero) { return make_movie<decltype(zero)>(a, ffmpeg); });
+  const std::string text = cluster::share_from_rank0([&] {
+    check_movie_output(a.output);
+    if (a.shared.frame >= 0) usage_error("--frame: movie renders a range; use --from and --to");
+    try {
+      ffmpeg = twinray::io::find_ffmpeg();
+    } catch (const twinray::Error& e) {
+      // Said as it is: no "backend" prefix, which main() gives to unavailable backends.
+      std::cerr << "twinray: " << e.what() << "\n";
+      throw QuietExit{exit_status(e.kind())};
+    }
+    return scene_arg_text(a.scene);
+  });
+  return with_precision(a.shared,
+                        [&](auto zero) { return make_movie<decltype(zero)>(a, text, ffmpeg); });
 }
 
 const Command kMovie(

@@ -17,11 +17,37 @@
 #include <twinray/version.hpp>
 
 #include "cli_common.hpp"
+#include "cluster.hpp"
 #include "command.hpp"
 
+namespace {
+
+int run_command(int argc, char** argv);
+
+}  // namespace
+
+// Under mpirun or srun every rank runs this same program (docs/distributed.md); only
+// rank 0 prints help, versions and errors of the command line, which every rank finds
+// alike.
 int main(int argc, char** argv) {
+  try {
+    twinray_cli::cluster::start(&argc, &argv);
+  } catch (const twinray::Error& e) {
+    std::cerr << "twinray: " << e.what() << "\n";
+    return twinray_cli::kExitBadInput;
+  }
+  const int status = run_command(argc, argv);
+  twinray_cli::cluster::finish(status);
+  return status;
+}
+
+namespace {
+
+int run_command(int argc, char** argv) {
   using twinray_cli::kExitBadInput;
   using twinray_cli::kExitRuntimeFailure;
+  namespace cluster = twinray_cli::cluster;
+  const bool speaks = cluster::rank() == 0;
   CLI::App app("twinray " TWINRAY_VERSION_STRING
                ": a ray tracer whose CPU and OpenCL backends render the same image, bit "
                "for bit",
@@ -47,8 +73,10 @@ int main(int argc, char** argv) {
       known = known || entry.first->get_name() == argv[1];
     }
     if (!known) {
-      std::cerr << "twinray: unknown subcommand \"" << argv[1] << "\"; the subcommands are "
-                << names << " (twinray --help)\n";
+      cluster::fail_alike();
+      if (speaks)
+        std::cerr << "twinray: unknown subcommand \"" << argv[1] << "\"; the subcommands are "
+                  << names << " (twinray --help)\n";
       return kExitBadInput;
     }
   }
@@ -56,30 +84,48 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    int code = app.exit(e);  // prints help, the version, or the error
+    // Prints help, the version, or the error.
+    int code = speaks ? app.exit(e) : e.get_exit_code();
+    cluster::fail_alike();
     return code == 0 ? 0 : kExitBadInput;
   }
 
   for (auto& [sub, run] : runs) {
     if (!sub->parsed()) continue;
+    if (cluster::distributed() && sub->get_name() != "render" && sub->get_name() != "movie") {
+      cluster::fail_alike();
+      if (speaks)
+        std::cerr << "twinray: " << sub->get_name()
+                  << " runs in one process; render and movie run across the ranks of an MPI "
+                     "job (docs/distributed.md)\n";
+      return kExitBadInput;
+    }
+    // A rank other than 0 speaks only for failures that are its own; rank 0 reports
+    // those that every rank shares.
+    const std::string who = cluster::message_prefix();
     try {
       return run();
+    } catch (const twinray_cli::QuietExit& e) {
+      return e.status;
     } catch (const twinray::Error& e) {
       int status = twinray_cli::exit_status(e.kind());
-      std::cerr << "twinray: "
+      std::cerr << who
                 << (status == twinray_cli::kExitBackendUnavailable
                         ? "the requested backend is not available: "
                         : "")
                 << e.what() << "\n";
       return status;
     } catch (const std::bad_alloc&) {
-      std::cerr << "twinray: out of memory\n";
+      std::cerr << who << "out of memory\n";
       return kExitRuntimeFailure;
     } catch (const std::exception& e) {
-      std::cerr << "twinray: " << e.what() << "\n";
+      std::cerr << who << e.what() << "\n";
       return kExitRuntimeFailure;
     }
   }
-  std::cerr << "twinray: no subcommand given; see twinray --help\n";
+  cluster::fail_alike();
+  if (speaks) std::cerr << "twinray: no subcommand given; see twinray --help\n";
   return kExitBadInput;
 }
+
+}  // namespace
