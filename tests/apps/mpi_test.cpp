@@ -179,7 +179,7 @@ TEST_CASE("mpi movie: 3 ranks make the one-process MP4 and frames byte for byte"
                   name);
 }
 
-TEST_CASE("mpi movie: a killed rank fails the job with no MP4; the rerun resumes to the same MP4") {
+TEST_CASE("mpi movie: a killed rank fails the job with no MP4, the rerun resumes to the same MP4") {
   std::string one = test_support::fresh_folder(kWork, "mpi_kill_reference");
   REQUIRE(alone(kMovie, one).status == 0);
 

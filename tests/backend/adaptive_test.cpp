@@ -72,7 +72,7 @@ TEST_CASE_TEMPLATE("adaptive: every pixel is the uniform render at spp or at ada
   }
 }
 
-TEST_CASE("adaptive: threshold 0 refines every pixel that is not flat; a huge one none") {
+TEST_CASE("adaptive: threshold 0 refines every pixel that is not flat, a huge one none") {
   auto d = twinray::demo::make_demo_scene<float>(kW, kH);
   RenderOptions o;
   o.sampler = Sampler::R2;

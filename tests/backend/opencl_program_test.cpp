@@ -79,7 +79,7 @@ TEST_CASE_TEMPLATE("buffer structs have the same size in the kernel as on the ho
   CHECK(device == host);
 }
 
-TEST_CASE("programs are cached in the process and on disk; the scene is sent once") {
+TEST_CASE("programs are cached in the process and on disk, the scene is sent once") {
   auto d = twinray::demo::make_demo_scene<float>(48, 32);
   RenderOptions options;
   options.backend = Backend::OpenCL;

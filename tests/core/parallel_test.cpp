@@ -59,7 +59,7 @@ TEST_CASE("parallel_for: uses the thread count set, and the caller is one of the
   CHECK(ids.count(std::this_thread::get_id()) == 1);
 }
 
-TEST_CASE("parallel_for: the default is every hardware thread; negative counts are refused") {
+TEST_CASE("parallel_for: the default is every hardware thread, negative counts are refused") {
   twinray::set_thread_count(0);
   unsigned hw = std::thread::hardware_concurrency();
   CHECK(twinray::thread_count() == (hw > 0 ? static_cast<int>(hw) : 1));

@@ -75,7 +75,7 @@ TEST_CASE("samplers: the largest sample count still places every sample in its c
     }
 }
 
-TEST_CASE("samplers: grid gives cell centers; stratified one jittered sample per cell") {
+TEST_CASE("samplers: grid gives cell centers, stratified one jittered sample per cell") {
   for (int spp : {1, 4, 9, 16, 12, 100}) {
     int cols = columns(spp), rows = (spp + cols - 1) / cols;
     std::set<std::pair<int, int>> cells;
@@ -100,7 +100,7 @@ TEST_CASE("samplers: grid gives cell centers; stratified one jittered sample per
   CHECK(c.y == 0.5f);
 }
 
-TEST_CASE("samplers: jitter and shifts depend on pixel and seed; R2 is progressive") {
+TEST_CASE("samplers: jitter and shifts depend on pixel and seed, R2 is progressive") {
   auto same = [](int sampler, int seed_a, int px_a, int seed_b, int px_b) {
     int equal = 0;
     for (int i = 0; i < 16; ++i) {

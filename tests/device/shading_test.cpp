@@ -88,7 +88,7 @@ TEST_CASE_TEMPLATE("Blinn-Phong terms match the hand-computed values", T, float,
   }
 }
 
-TEST_CASE_TEMPLATE("a blocked light leaves the ambient term only; shadows off ignore it", T, float,
+TEST_CASE_TEMPLATE("a blocked light leaves the ambient term only, shadows off ignore it", T, float,
                    double) {
   ShadeFixture<T> f({2, 0, 2}, 8, kAllTerms | TR_F_SHADOWS);
   f.add_blocker({1, 0, 1}, T(0.25));

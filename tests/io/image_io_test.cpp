@@ -54,7 +54,7 @@ TEST_CASE("PNG is a valid RGB file of the image's size") {
   CHECK(png[25] == 2);
 }
 
-TEST_CASE_TEMPLATE("PFM round trip keeps every float bit; rows bottom to top", T, float, double) {
+TEST_CASE_TEMPLATE("PFM round trip keeps every float bit, rows bottom to top", T, float, double) {
   TempDir dir;
   Image<T> img(4, 3);
   for (size_t i = 0; i < img.rgb.size(); ++i) img.rgb[i] = static_cast<T>(0.1 * i - 0.3);

@@ -37,7 +37,7 @@ TEST_CASE_TEMPLATE("seed camera: basis, focal length and first pixel center", T,
   check_vec<T>(f.first_pixel, upper_left + (f.du + f.dv) * T(0.5), 1e-5);
 }
 
-TEST_CASE_TEMPLATE("perspective rays start at the camera; the center pixel looks at look_at", T,
+TEST_CASE_TEMPLATE("perspective rays start at the camera, the center pixel looks at look_at", T,
                    float, double) {
   using K = typename twinray::device::Code<T>::template Kernel<TR_F_ALL>;
   Camera<T> cam;
