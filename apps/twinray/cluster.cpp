@@ -39,13 +39,17 @@ int g_size = 1;
 // the exit status; otherwise a failure aborts the job.
 bool g_ranks_released = false;
 // The number of ranks an MPI launcher announces in the environment, 0 when none does:
-// Open MPI's mpirun, MPICH's and Intel MPI's Hydra (PMI), and Slurm's srun.
+// Open MPI's mpirun, MPICH's Hydra and srun --mpi=pmi2 (PMI_SIZE), and the tasks of an
+// srun job step. A batch script itself is not a step of several tasks, so twinray run
+// there directly is one process. A PMIx launcher that names the rank but not the size
+// counts as 1: MPI is initialised and tells the size.
 int launcher_size() {
-  for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "SLURM_NTASKS", "PMIX_SIZE"}) {
+  for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "SLURM_STEP_NUM_TASKS"}) {
     const char* value = std::getenv(name);
     if (value && *value) return std::atoi(value);
   }
-  return 0;
+  const char* pmix = std::getenv("PMIX_RANK");
+  return pmix && *pmix ? 1 : 0;
 }
 
 // One process: every item in order, on the calling thread.
