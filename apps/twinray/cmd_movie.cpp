@@ -462,7 +462,7 @@ const Command kMovie(
                    "keep the frames folder (PNG per frame) after the movie is done");
       return [a] { return run_movie(*a); };
     },
-    20);
+    20, /*across_ranks=*/true);
 
 }  // namespace
 }  // namespace twinray_cli

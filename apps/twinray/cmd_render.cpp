@@ -131,7 +131,7 @@ const Command kRender(
       add_shared_options(app, a->shared, kOptionFrame | kOptionAov);
       return [a] { return run_render(*a); };
     },
-    10);
+    10, /*across_ranks=*/true);
 
 }  // namespace
 }  // namespace twinray_cli

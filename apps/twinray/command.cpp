@@ -15,10 +15,12 @@ std::vector<CommandEntry>& registry() {
 }
 }  // namespace
 
-Command::Command(std::string name, std::string description, Setup setup, int order) {
+Command::Command(std::string name, std::string description, Setup setup, int order,
+                 bool across_ranks) {
   for (const CommandEntry& e : registry())
     if (e.name == name) throw std::logic_error("twinray: subcommand registered twice: " + name);
-  registry().push_back({std::move(name), std::move(description), std::move(setup), order});
+  registry().push_back(
+      {std::move(name), std::move(description), std::move(setup), order, across_ranks});
 }
 
 std::vector<CommandEntry> registered_commands() {

@@ -32,7 +32,10 @@ class Command {
  public:
   using Setup = std::function<Run(CLI::App& app)>;
   // `order` sorts the subcommands in --help (lower first; ties by name).
-  Command(std::string name, std::string description, Setup setup, int order = 100);
+  // `across_ranks`: the subcommand runs as the ranks of an MPI job (cluster.hpp); the
+  // others refuse to start as one of several ranks.
+  Command(std::string name, std::string description, Setup setup, int order = 100,
+          bool across_ranks = false);
 };
 
 struct CommandEntry {
@@ -40,6 +43,7 @@ struct CommandEntry {
   std::string description;
   Command::Setup setup;
   int order = 100;
+  bool across_ranks = false;
 };
 
 // Every registered subcommand, sorted by order, then name.

@@ -58,19 +58,26 @@ int run_command(int argc, char** argv) {
       "Exit status: 0 success, 1 rendering failed at run time, 2 bad command line or scene,\n"
       "3 the requested backend is not available. `twinray SUBCOMMAND --help` for more.");
 
-  std::vector<std::pair<CLI::App*, twinray_cli::Run>> runs;
+  struct Subcommand {
+    CLI::App* app;
+    twinray_cli::Run run;
+    bool across_ranks;
+  };
+  std::vector<Subcommand> runs;
+  std::string across_ranks;  // "render and movie"
   for (const twinray_cli::CommandEntry& c : twinray_cli::registered_commands()) {
     CLI::App* sub = app.add_subcommand(c.name, c.description);
-    runs.emplace_back(sub, c.setup(*sub));
+    runs.push_back({sub, c.setup(*sub), c.across_ranks});
+    if (c.across_ranks) across_ranks += (across_ranks.empty() ? "" : " and ") + c.name;
   }
 
   // CLI11 reads an unknown word as a stray argument ("A subcommand is required"); name it.
   if (argc > 1 && argv[1][0] != '-') {
     std::string names;
     bool known = false;
-    for (auto& entry : runs) {
-      names += (names.empty() ? "" : ", ") + entry.first->get_name();
-      known = known || entry.first->get_name() == argv[1];
+    for (const Subcommand& entry : runs) {
+      names += (names.empty() ? "" : ", ") + entry.app->get_name();
+      known = known || entry.app->get_name() == argv[1];
     }
     if (!known) {
       cluster::fail_alike();
@@ -90,21 +97,20 @@ int run_command(int argc, char** argv) {
     return code == 0 ? 0 : kExitBadInput;
   }
 
-  for (auto& [sub, run] : runs) {
-    if (!sub->parsed()) continue;
-    if (cluster::distributed() && sub->get_name() != "render" && sub->get_name() != "movie") {
+  for (const Subcommand& sub : runs) {
+    if (!sub.app->parsed()) continue;
+    if (cluster::distributed() && !sub.across_ranks) {
       cluster::fail_alike();
       if (speaks)
-        std::cerr << "twinray: " << sub->get_name()
-                  << " runs in one process; render and movie run across the ranks of an MPI "
-                     "job (docs/distributed.md)\n";
+        std::cerr << "twinray: " << sub.app->get_name() << " runs in one process; " << across_ranks
+                  << " run across the ranks of an MPI job (docs/distributed.md)\n";
       return kExitBadInput;
     }
     // A rank other than 0 speaks only for failures that are its own; rank 0 reports
     // those that every rank shares.
     const std::string who = cluster::message_prefix();
     try {
-      return run();
+      return sub.run();
     } catch (const twinray_cli::QuietExit& e) {
       return e.status;
     } catch (const twinray::Error& e) {
