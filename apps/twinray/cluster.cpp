@@ -1,14 +1,14 @@
 // The steps of cluster.hpp, over MPI when twinray is built with it (TWINRAY_WITH_MPI)
 // and started by an MPI launcher, and as plain calls in one process otherwise.
 //
-// Between rank 0 and a worker rank, every message is a header of three 64-bit integers
+// Between rank 0 and a worker rank, every message is a header of two 64-bit integers
 // with the message's tag, followed, when the header's size is not 0, by that many bytes
 // in chunks of at most 1 GiB (tag kData), so that no count exceeds an int:
-//   worker -> 0   kReady  {0, 0, 0}            the worker wants its first item
-//                 kResult {item, 0, size}      an item's bytes; the worker wants the next
-//                 kFail   {status, 0, size}    the item failed: exit status, message
-//   0 -> worker   kWork   {item, 0, 0}         render this item
-//                 kStop   {status, 0, 0}       no more items; status != 0: the job failed
+//   worker -> 0   kReady  {0, 0}            the worker wants its first item
+//                 kResult {item, size}      an item's bytes; the worker wants the next
+//                 kFail   {status, size}    the item failed: exit status, message
+//   0 -> worker   kWork   {item, 0}         render this item
+//                 kStop   {status, 0}       no more items; status != 0: the job failed
 #include "cluster.hpp"
 
 #include <chrono>
@@ -36,7 +36,8 @@ int g_rank = 0;
 int g_size = 1;
 // Set once no rank waits on this one any more: a step failed on every rank alike, or
 // the last step (share_work) is over. The ranks then finalize MPI together, whatever
-// the exit status; otherwise a failure aborts the job.
+// the exit status; otherwise a failure aborts the job (a rank that returns 0 has taken
+// every step).
 bool g_ranks_released = false;
 // The number of ranks an MPI launcher announces in the environment, 0 when none does:
 // Open MPI's mpirun, MPICH's Hydra and srun --mpi=pmi2 (PMI_SIZE), and the tasks of an
@@ -70,9 +71,6 @@ WorkSummary share_work_here(const std::vector<long long>& items, const WorkFn& w
 
 #ifdef TWINRAY_WITH_MPI
 
-// Set when rank 0 left share_work() without telling every worker to stop.
-bool g_workers_left = false;
-
 twinray::ErrorKind kind_of(int status) {
   if (status == kExitBadInput) return twinray::ErrorKind::InvalidInput;
   if (status == kExitBackendUnavailable) return twinray::ErrorKind::BackendUnavailable;
@@ -100,13 +98,14 @@ enum Tag { kReady = 1, kResult, kFail, kWork, kStop, kData };
 constexpr long long kChunk = 1ll << 30;
 bool g_mpi = false;
 
+// `value` is the item or the exit status; `size` the bytes that follow.
 struct Header {
-  long long a = 0, b = 0, size = 0;
+  long long value = 0, size = 0;
 };
 
 void send(int to, Tag tag, Header h, const std::string& bytes = {}) {
   h.size = static_cast<long long>(bytes.size());
-  MPI_Send(&h, 3, MPI_LONG_LONG, to, tag, MPI_COMM_WORLD);
+  MPI_Send(&h, 2, MPI_LONG_LONG, to, tag, MPI_COMM_WORLD);
   for (long long at = 0; at < h.size; at += kChunk)
     MPI_Send(bytes.data() + at, static_cast<int>(std::min(kChunk, h.size - at)), MPI_BYTE, to,
              kData, MPI_COMM_WORLD);
@@ -116,7 +115,7 @@ void send(int to, Tag tag, Header h, const std::string& bytes = {}) {
 // bytes; returns the tag.
 int receive(int from, int tag, Header* h, std::string* bytes) {
   MPI_Status status;
-  MPI_Recv(h, 3, MPI_LONG_LONG, from, tag, MPI_COMM_WORLD, &status);
+  MPI_Recv(h, 2, MPI_LONG_LONG, from, tag, MPI_COMM_WORLD, &status);
   bytes->assign(static_cast<size_t>(h->size), '\0');
   for (long long at = 0; at < h->size; at += kChunk)
     MPI_Recv(&(*bytes)[static_cast<size_t>(at)], static_cast<int>(std::min(kChunk, h->size - at)),
@@ -221,9 +220,9 @@ WorkSummary coordinate(const std::vector<long long>& items, const WorkFn& work,
   auto give = [&](int rank) {
     const long long i = fail_status == 0 ? next.fetch_add(1) : n;
     if (i < n) {
-      send(rank, kWork, {items[static_cast<size_t>(i)], 0, 0});
+      send(rank, kWork, {items[static_cast<size_t>(i)], 0});
     } else {
-      send(rank, kStop, {fail_status, 0, 0});
+      send(rank, kStop, {fail_status, 0});
       ++stopped;
     }
   };
@@ -232,7 +231,6 @@ WorkSummary coordinate(const std::vector<long long>& items, const WorkFn& work,
   while (true) {
     if (interrupted && interrupted->load()) {
       summary.interrupted = true;
-      g_workers_left = stopped < g_size;
       break;
     }
     bool idle = true;
@@ -247,9 +245,9 @@ WorkSummary coordinate(const std::vector<long long>& items, const WorkFn& work,
       const int tag = receive(rank, status.MPI_TAG, &h, &bytes);
       if (tag == kResult) {
         give(rank);  // first, so that the worker renders while this rank collects
-        take(rank, h.a, std::move(bytes));
+        take(rank, h.value, std::move(bytes));
       } else if (tag == kFail) {
-        fail(static_cast<int>(h.a), "rank " + std::to_string(rank) + ": " + bytes, nullptr);
+        fail(static_cast<int>(h.value), "rank " + std::to_string(rank) + ": " + bytes, nullptr);
         give(rank);
       } else {
         give(rank);
@@ -289,20 +287,20 @@ WorkSummary serve(const WorkFn& work) {
     const int tag = receive(0, MPI_ANY_TAG, &h, &bytes);
     if (tag == kStop) {
       g_ranks_released = true;
-      if (h.a != 0) throw QuietExit{static_cast<int>(h.a)};
+      if (h.value != 0) throw QuietExit{static_cast<int>(h.value)};
       return {};
     }
     std::string result;
     std::pair<int, std::string> failure{0, ""};
     try {
-      result = work(h.a);
+      result = work(h.value);
     } catch (...) {
       failure = describe(std::current_exception());
     }
     if (failure.first == 0)
-      send(0, kResult, {h.a, 0, 0}, result);
+      send(0, kResult, {h.value, 0}, result);
     else
-      send(0, kFail, {failure.first, 0, 0}, failure.second);
+      send(0, kFail, {failure.first, 0}, failure.second);
   }
 }
 
@@ -341,7 +339,7 @@ void finish(int status) {
 #ifdef TWINRAY_WITH_MPI
   if (!g_mpi) return;
   g_mpi = false;
-  if (g_ranks_released || (status == 0 && !g_workers_left))
+  if (g_ranks_released || status == 0)
     MPI_Finalize();
   else
     MPI_Abort(MPI_COMM_WORLD, status == 0 ? kExitRuntimeFailure : status);

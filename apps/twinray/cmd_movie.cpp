@@ -142,14 +142,11 @@ class FrameStore {
     return ok;
   }
 
-  // Whether frame k is there as a PNG of width x height (its header is read).
+  // Whether frame k is there as a PNG of width x height (only its header is read; the
+  // encoder decodes it in full).
   bool has(long long k, int width, int height) const {
-    std::string bytes = read_file(dir_ + "/" + frame_name(k));
     int w = 0, h = 0, n = 0;
-    return !bytes.empty() &&
-           stbi_info_from_memory(reinterpret_cast<const unsigned char*>(bytes.data()),
-                                 static_cast<int>(bytes.size()), &w, &h, &n) &&
-           w == width && h == height;
+    return stbi_info((dir_ + "/" + frame_name(k)).c_str(), &w, &h, &n) && w == width && h == height;
   }
 
   void save(long long k, const std::string& png) const {
