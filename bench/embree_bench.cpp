@@ -38,6 +38,7 @@
 #include <iostream>
 #include <sstream>
 #include <string>
+#include <type_traits>
 #include <thread>
 #include <vector>
 
@@ -197,34 +198,30 @@ void sphere_occluded_n(const RTCOccludedFunctionNArguments* args) {
   }
 }
 
-void sphere_intersect(const RTCIntersectFunctionNArguments* args) {
+// Calls f(std::integral_constant<unsigned, K>) with K = args->N for the widths Embree
+// uses, K = 0 (N read at run time) for any other.
+template <class Args, class F>
+void by_width(const Args* args, F f) {
   switch (args->N) {
     case 1:
-      return sphere_intersect_n<1>(args);
+      return f(std::integral_constant<unsigned, 1>{});
     case 4:
-      return sphere_intersect_n<4>(args);
+      return f(std::integral_constant<unsigned, 4>{});
     case 8:
-      return sphere_intersect_n<8>(args);
+      return f(std::integral_constant<unsigned, 8>{});
     case 16:
-      return sphere_intersect_n<16>(args);
+      return f(std::integral_constant<unsigned, 16>{});
     default:
-      return sphere_intersect_n<0>(args);
+      return f(std::integral_constant<unsigned, 0>{});
   }
 }
 
+void sphere_intersect(const RTCIntersectFunctionNArguments* args) {
+  by_width(args, [args](auto k) { sphere_intersect_n<decltype(k)::value>(args); });
+}
+
 void sphere_occluded(const RTCOccludedFunctionNArguments* args) {
-  switch (args->N) {
-    case 1:
-      return sphere_occluded_n<1>(args);
-    case 4:
-      return sphere_occluded_n<4>(args);
-    case 8:
-      return sphere_occluded_n<8>(args);
-    case 16:
-      return sphere_occluded_n<16>(args);
-    default:
-      return sphere_occluded_n<0>(args);
-  }
+  by_width(args, [args](auto k) { sphere_occluded_n<decltype(k)::value>(args); });
 }
 
 void build_world(World& w, const twinray_bench::BenchScene<float>& b, SphereKind sphere_kind) {
