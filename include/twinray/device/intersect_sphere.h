@@ -51,8 +51,10 @@ TR_FN real tr_sphere_c(vec3 f, vec3 o, vec3 center, real r) {
   return c;
 }
 
-TR_FN_INLINE int tr_intersect_sphere(TR_GLOBAL const TrSphere* sp, TrRay ray, real tmax,
-                                     TrHit* hit) {
+/* Distance along the ray to where it first enters or leaves the sphere, > 0; a value
+ * that is not > 0 (0, or NaN) where the ray misses. Only t: the hit record is made
+ * once per ray, for the nearest primitive (tr_sphere_record). */
+TR_FN_INLINE real tr_sphere_t(TR_GLOBAL const TrSphere* sp, TrRay ray) {
   vec3 center = TR_VEC3(sp->cx, sp->cy, sp->cz);
   real r = sp->radius;
   vec3 f = ray.o - center;
@@ -70,10 +72,10 @@ TR_FN_INLINE int tr_intersect_sphere(TR_GLOBAL const TrSphere* sp, TrRay ray, re
     have_c = 1;
     if (TR_R(2.0) * (b * b) + a * fabs(c) < a * r2) root_arg = b * b - a * c;
   }
-  if (root_arg < TR_R(0.0)) return 0;
+  if (root_arg < TR_R(0.0)) return TR_R(0.0);
   if (!have_c) c = tr_sphere_c(f, ray.o, center, r);
   real q = b + (b >= TR_R(0.0) ? sqrt(root_arg) : -sqrt(root_arg));
-  if (q == TR_R(0.0)) return 0; /* origin on the sphere and tangent: no finite root */
+  if (q == TR_R(0.0)) return TR_R(0.0); /* origin on the sphere and tangent: no finite root */
   real t0 = c / q;
   real t1 = q / a;
   if (t0 > t1) {
@@ -81,17 +83,27 @@ TR_FN_INLINE int tr_intersect_sphere(TR_GLOBAL const TrSphere* sp, TrRay ray, re
     t0 = t1;
     t1 = tmp;
   }
-  real t = t0 > TR_R(0.0) ? t0 : t1;
-  if (!(t > TR_R(0.0)) || !(t < tmax)) return 0;
+  return t0 > TR_R(0.0) ? t0 : t1;
+}
 
-  vec3 rel = f + ray.d * t;
+/* The hit record at distance t along the ray (t from tr_sphere_t). */
+TR_FN void tr_sphere_record(TR_GLOBAL const TrSphere* sp, TrRay ray, real t, TrHit* hit) {
+  vec3 center = TR_VEC3(sp->cx, sp->cy, sp->cz);
+  real r = sp->radius;
+  vec3 rel = (ray.o - center) + ray.d * t;
   rel = rel * (r / tr_length(rel)); /* refine onto the surface */
-  vec3 p = center + rel;
   hit->t = t;
-  hit->p = p;
+  hit->p = center + rel;
   hit->perr = tr_abs3(rel) * tr_gamma(5) + (tr_abs3(center) + tr_abs3(rel)) * tr_gamma(1);
   hit->n = rel * (TR_R(1.0) / r);
   hit->material = sp->material;
   hit->object = sp->object;
+}
+
+/* The whole test for one ray and one sphere, hits in (0, tmax) (tests, one-off queries). */
+TR_FN int tr_intersect_sphere(TR_GLOBAL const TrSphere* sp, TrRay ray, real tmax, TrHit* hit) {
+  real t = tr_sphere_t(sp, ray);
+  if (!(t > TR_R(0.0)) || !(t < tmax)) return 0;
+  tr_sphere_record(sp, ray, t, hit);
   return 1;
 }

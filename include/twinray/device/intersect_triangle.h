@@ -30,8 +30,15 @@ TR_FN_INLINE TrTriangleRay tr_triangle_ray(TrRay ray) {
   return tr;
 }
 
-TR_FN_INLINE int tr_intersect_triangle_prepared(TR_GLOBAL const TrTriangle* tri, TrRay ray,
-                                                const TrTriangleRay* tr, real tmax, TrHit* hit) {
+/* Distance along the ray to the triangle, > 0, and the barycentric coordinates of
+ * the hit; a value that is not > 0 where the ray misses. Only t is read on the hot
+ * paths (the barycentrics are dead code there): the hit record is made once per ray,
+ * for the nearest primitive (tr_triangle_record). t is not range-tested against the
+ * ray's tmax before the division, as Woop et al. do: the caller compares the rounded t
+ * itself, so whether a triangle wins never depends on what was found before it
+ * (scene_hit.h). */
+TR_FN_INLINE real tr_triangle_t_bary(TR_GLOBAL const TrTriangle* tri, TrRay ray,
+                                     const TrTriangleRay* tr, vec3* bary) {
   vec3 p0 = TR_VEC3(tri->p0x, tri->p0y, tri->p0z);
   vec3 p1 = TR_VEC3(tri->p1x, tri->p1y, tri->p1z);
   vec3 p2 = TR_VEC3(tri->p2x, tri->p2y, tri->p2z);
@@ -54,15 +61,15 @@ TR_FN_INLINE int tr_intersect_triangle_prepared(TR_GLOBAL const TrTriangle* tri,
   real e2 = ax * by - ay * bx;
   if ((e0 < TR_R(0.0) || e1 < TR_R(0.0) || e2 < TR_R(0.0)) &&
       (e0 > TR_R(0.0) || e1 > TR_R(0.0) || e2 > TR_R(0.0)))
-    return 0;
+    return TR_R(0.0);
   real det = e0 + e1 + e2;
-  if (det == TR_R(0.0)) return 0;
+  if (det == TR_R(0.0)) return TR_R(0.0);
 
-  /* Scaled hit distance, range-tested against det * tmax before dividing. */
+  /* Scaled hit distance; its sign must be the sign of det. */
   real az = sz * a.z, bz = sz * b.z, cz = sz * c.z;
   real t_scaled = e0 * az + e1 * bz + e2 * cz;
-  if (det < TR_R(0.0) && (t_scaled >= TR_R(0.0) || t_scaled < tmax * det)) return 0;
-  if (det > TR_R(0.0) && (t_scaled <= TR_R(0.0) || t_scaled > tmax * det)) return 0;
+  if (det < TR_R(0.0) && t_scaled >= TR_R(0.0)) return TR_R(0.0);
+  if (det > TR_R(0.0) && t_scaled <= TR_R(0.0)) return TR_R(0.0);
 
   real inv_det = TR_R(1.0) / det;
   real b0 = e0 * inv_det, b1 = e1 * inv_det, b2 = e2 * inv_det;
@@ -89,27 +96,46 @@ TR_FN_INLINE int tr_intersect_triangle_prepared(TR_GLOBAL const TrTriangle* tri,
     real max_e = tr_max_component(tr_abs3(TR_VEC3(e0, e1, e2)));
     real delta_t = TR_R(3.0) * (tr_gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) *
                    fabs(inv_det);
-    if (!(t > delta_t)) return 0;
+    if (!(t > delta_t)) return TR_R(0.0);
   }
 
   /* Zero-area triangles have no normal: never hit them. */
   vec3 normal = tr_cross(p1 - p0, p2 - p0);
-  real area2 = tr_dot(normal, normal);
-  if (!(area2 > TR_R(0.0))) return 0;
-
-  /* Hit point from barycentrics: its error lies along the surface, not off it
-   * (Waechter and Binder, Ray Tracing Gems ch. 6); bound gamma(7) sum |b_i p_i|. */
-  hit->t = t;
-  hit->p = p0 * b0 + p1 * b1 + p2 * b2;
-  hit->perr = (tr_abs3(p0 * b0) + tr_abs3(p1 * b1) + tr_abs3(p2 * b2)) * tr_gamma(7);
-  hit->n = normal * (TR_R(1.0) / sqrt(area2));
-  hit->material = tri->material;
-  hit->object = tri->object;
-  return 1;
+  if (!(tr_dot(normal, normal) > TR_R(0.0))) return TR_R(0.0);
+  *bary = TR_VEC3(b0, b1, b2);
+  return t;
 }
 
-/* The whole test for one ray and one triangle (tests and one-off queries). */
+TR_FN_INLINE real tr_triangle_t(TR_GLOBAL const TrTriangle* tri, TrRay ray,
+                                const TrTriangleRay* tr) {
+  vec3 bary = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0)); /* set on a hit only */
+  return tr_triangle_t_bary(tri, ray, tr, &bary);
+}
+
+/* The hit record of a ray that reaches the triangle at t (from tr_triangle_t). The
+ * hit point comes from the barycentrics: its error lies along the surface, not off it
+ * (Waechter and Binder, Ray Tracing Gems ch. 6); bound gamma(7) sum |b_i p_i|. */
+TR_FN void tr_triangle_record(TR_GLOBAL const TrTriangle* tri, TrRay ray, const TrTriangleRay* tr,
+                              real t, TrHit* hit) {
+  vec3 bary = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0)); /* set on a hit only */
+  tr_triangle_t_bary(tri, ray, tr, &bary);
+  vec3 p0 = TR_VEC3(tri->p0x, tri->p0y, tri->p0z);
+  vec3 p1 = TR_VEC3(tri->p1x, tri->p1y, tri->p1z);
+  vec3 p2 = TR_VEC3(tri->p2x, tri->p2y, tri->p2z);
+  vec3 normal = tr_cross(p1 - p0, p2 - p0);
+  hit->t = t;
+  hit->p = p0 * bary.x + p1 * bary.y + p2 * bary.z;
+  hit->perr = (tr_abs3(p0 * bary.x) + tr_abs3(p1 * bary.y) + tr_abs3(p2 * bary.z)) * tr_gamma(7);
+  hit->n = normal * (TR_R(1.0) / sqrt(tr_dot(normal, normal)));
+  hit->material = tri->material;
+  hit->object = tri->object;
+}
+
+/* The whole test for one ray and one triangle, hits in (0, tmax) (tests, one-off queries). */
 TR_FN int tr_intersect_triangle(TR_GLOBAL const TrTriangle* tri, TrRay ray, real tmax, TrHit* hit) {
   TrTriangleRay tr = tr_triangle_ray(ray);
-  return tr_intersect_triangle_prepared(tri, ray, &tr, tmax, hit);
+  real t = tr_triangle_t(tri, ray, &tr);
+  if (!(t > TR_R(0.0)) || !(t < tmax)) return 0;
+  tr_triangle_record(tri, ray, &tr, t, hit);
+  return 1;
 }

@@ -7,60 +7,79 @@
  * two functions below, so that is where benchmarks count them (TR_COUNT_RAY, prelude.h;
  * nothing in a render or on the device). */
 
-TR_FN int tr_closest_hit(const TrSceneRef* s, TrRay ray, real tmax, TrHit* hit) {
-  int found = 0;
-  TR_COUNT_RAY();
-  if (tr_use(s, TR_F_BVH)) {
-    found = tr_bvh_closest(s, ray, tmax, hit);
-    if (found) tmax = hit->t;
-  } else {
-    if (TR_HAS(TR_F_SPHERES)) {
-      for (int i = 0; i < s->params->n_spheres; ++i)
-        if (tr_intersect_sphere(&s->spheres[i], ray, tmax, hit)) {
-          found = 1;
-          tmax = hit->t;
-        }
-    }
-    if (TR_HAS(TR_F_TRIANGLES)) {
-      TrTriangleRay tri_ray = tr_triangle_ray(ray);
-      for (int i = 0; i < s->params->n_triangles; ++i)
-        if (tr_intersect_triangle_prepared(&s->triangles[i], ray, &tri_ray, tmax, hit)) {
-          found = 1;
-          tmax = hit->t;
-        }
-    }
+/* The hit record of the nearest hit, made once per ray from its (t, primitive). */
+TR_FN void tr_record_hit(const TrSceneRef* s, TrRay ray, TrNearest nearest, TrHit* hit) {
+  int n_spheres = s->params->n_spheres;
+  int n_bounded = n_spheres + s->params->n_triangles;
+  int prim = nearest.prim;
+  if (TR_HAS(TR_F_SPHERES) && prim < n_spheres) {
+    tr_sphere_record(&s->spheres[prim], ray, nearest.t, hit);
+  } else if (TR_HAS(TR_F_TRIANGLES) && prim < n_bounded) {
+    TrTriangleRay tri_ray = tr_triangle_ray(ray);
+    tr_triangle_record(&s->triangles[prim - n_spheres], ray, &tri_ray, nearest.t, hit);
+  } else if (TR_HAS(TR_F_PLANES)) {
+    tr_plane_record(&s->planes[prim - n_bounded], ray, nearest.t, hit);
   }
-  if (TR_HAS(TR_F_PLANES)) {
-    for (int i = 0; i < s->params->n_planes; ++i)
-      if (tr_intersect_plane(&s->planes[i], ray, tmax, hit)) {
-        found = 1;
-        tmax = hit->t;
-      }
-  }
-  return found;
 }
 
-/* Is anything in (0, tmax) along the ray? Stops at the first hit. */
-TR_FN int tr_any_hit(const TrSceneRef* s, TrRay ray, real tmax) {
-  TrHit scratch = tr_no_hit();
+/* The nearest hit in (0, tmax): the smallest (t, primitive id), see tr_offer_hit. */
+TR_FN int tr_closest_hit(const TrSceneRef* s, TrRay ray, real tmax, TrHit* hit) {
+  TrNearest nearest;
+  nearest.t = tmax;
+  nearest.prim = -1;
+  int n_spheres = s->params->n_spheres;
+  int n_bounded = n_spheres + s->params->n_triangles;
   TR_COUNT_RAY();
   if (tr_use(s, TR_F_BVH)) {
-    if (tr_bvh_any(s, ray, tmax)) return 1;
+    tr_bvh_walk(s, ray, &nearest, 0);
   } else {
     if (TR_HAS(TR_F_SPHERES)) {
-      for (int i = 0; i < s->params->n_spheres; ++i)
-        if (tr_intersect_sphere(&s->spheres[i], ray, tmax, &scratch)) return 1;
+      for (int i = 0; i < n_spheres; ++i)
+        tr_offer_hit(&nearest, tr_sphere_t(&s->spheres[i], ray), i);
     }
     if (TR_HAS(TR_F_TRIANGLES)) {
       TrTriangleRay tri_ray = tr_triangle_ray(ray);
       for (int i = 0; i < s->params->n_triangles; ++i)
-        if (tr_intersect_triangle_prepared(&s->triangles[i], ray, &tri_ray, tmax, &scratch))
-          return 1;
+        tr_offer_hit(&nearest, tr_triangle_t(&s->triangles[i], ray, &tri_ray), n_spheres + i);
     }
   }
   if (TR_HAS(TR_F_PLANES)) {
     for (int i = 0; i < s->params->n_planes; ++i)
-      if (tr_intersect_plane(&s->planes[i], ray, tmax, &scratch)) return 1;
+      tr_offer_hit(&nearest, tr_plane_t(&s->planes[i], ray), n_bounded + i);
+  }
+  if (nearest.prim < 0) return 0;
+  tr_record_hit(s, ray, nearest, hit);
+  return 1;
+}
+
+/* Is anything in (0, tmax) along the ray? Stops at the first hit and makes no record. */
+TR_FN int tr_any_hit(const TrSceneRef* s, TrRay ray, real tmax) {
+  TR_COUNT_RAY();
+  if (tr_use(s, TR_F_BVH)) {
+    TrNearest limit;
+    limit.t = tmax;
+    limit.prim = -1;
+    if (tr_bvh_walk(s, ray, &limit, 1)) return 1;
+  } else {
+    if (TR_HAS(TR_F_SPHERES)) {
+      for (int i = 0; i < s->params->n_spheres; ++i) {
+        real t = tr_sphere_t(&s->spheres[i], ray);
+        if (t > TR_R(0.0) && t < tmax) return 1;
+      }
+    }
+    if (TR_HAS(TR_F_TRIANGLES)) {
+      TrTriangleRay tri_ray = tr_triangle_ray(ray);
+      for (int i = 0; i < s->params->n_triangles; ++i) {
+        real t = tr_triangle_t(&s->triangles[i], ray, &tri_ray);
+        if (t > TR_R(0.0) && t < tmax) return 1;
+      }
+    }
+  }
+  if (TR_HAS(TR_F_PLANES)) {
+    for (int i = 0; i < s->params->n_planes; ++i) {
+      real t = tr_plane_t(&s->planes[i], ray);
+      if (t > TR_R(0.0) && t < tmax) return 1;
+    }
   }
   return 0;
 }

@@ -50,10 +50,11 @@ typedef struct TrBvhNode {
   int first, count;
 } TrBvhNode;
 
-/* A ray as the box test wants it: 1/d, and per axis the index into bounds of the
- * plane it meets first (the max plane where d < 0) and of the one it leaves by. */
+/* A ray as the box test wants it: 1/d, 1/d padded for the far planes (bvh_traverse.h),
+ * and per axis the index into bounds of the plane it meets first (the max plane where
+ * d < 0) and of the one it leaves by. */
 typedef struct TrBoxRay {
-  vec3 o, inv_d;
+  vec3 o, inv_d, inv_d_far;
   int near_x, near_y, near_z, far_x, far_y, far_z;
 } TrBoxRay;
 
@@ -66,7 +67,7 @@ typedef struct TrParams {
   real ortho_dir_x, ortho_dir_y, ortho_dir_z;       /* -W, the orthographic ray direction */
   real bg_r, bg_g, bg_b;                            /* background color */
   real adaptive_threshold; /* refine a pixel whose contrast exceeds it (device/adaptive.h) */
-  int width, height; /* the whole frame */
+  int width, height;       /* the whole frame */
   /* The pixels this render computes: the framebuffer holds rect_w x rect_h of them,
    * from (rect_x, rect_y). Adaptive sampling's first pass covers the statistics window,
    * the rectangle plus a one-pixel border clipped to the frame (pack/pack.hpp). */
@@ -112,6 +113,14 @@ typedef struct TrHit {
   vec3 n;    /* unit geometric normal, not yet turned toward the ray */
   int material, object;
 } TrHit;
+
+/* The nearest hit found so far: only its distance and primitive (ids: spheres, then
+ * triangles, then planes, each in packed order; -1 while there is none, with t the
+ * ray's tmax). The hit record is made from it once, at the end (scene_hit.h). */
+typedef struct TrNearest {
+  real t;
+  int prim;
+} TrNearest;
 
 typedef struct TrSample2 {
   real x, y; /* position inside the pixel, in [0, 1) */
