@@ -190,7 +190,15 @@ std::vector<BadScene> bad_scenes() {
       {edit(kInlineMesh, R"({ "type": "mesh", "obj": "missing.obj", "material": "red" })"),
        "objects[3].obj: missing.obj: cannot open an OBJ file: No such file or directory"},
       {edit(kInlineMesh, R"({ "type": "mesh", "obj": "broken.obj", "material": "red" })"),
-       "objects[3].obj: broken.obj: face 1 refers to vertex 9, but only 3 are defined"},
+       "objects[3].obj: broken.obj:4: vertex index 9 is out of range: the file has 3"},
+      {edit(kInlineMesh, R"({ "type": "mesh", "obj": "quad.obj", "material": "red" })"),
+       "objects[3].obj: quad.obj:5: vertex index -5 is out of range: 4 before this line"},
+      {edit(kInlineMesh, R"({ "type": "mesh", "obj": "nan.obj", "material": "red" })"),
+       "objects[3].obj: nan.obj:2: vertex coordinate nan is not a finite number"},
+      {edit(kInlineMesh, R"({ "type": "mesh", "obj": "cut.obj", "material": "red" })"),
+       "objects[3].obj: cut.obj:5: a face needs at least 3 corners, got 2"},
+      {edit(kInlineMesh, R"({ "type": "mesh", "obj": "binary.obj", "material": "red" })"),
+       "objects[3].obj: binary.obj:1: byte 0x00: not a text file"},
       {edit(kInlineMesh, R"({ "type": "mesh", "obj": "empty.obj", "material": "red" })"),
        "objects[3].obj: empty.obj: no vertices"},
       {edit(kInlineMesh,
@@ -204,6 +212,10 @@ void write_aux_files(const std::string& dir) {
   write_file(dir + "/good.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 4 3\n");
   write_file(dir + "/broken.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
   write_file(dir + "/empty.obj", "# nothing here\n");
+  write_file(dir + "/quad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf -1 -2 -3 -5\n");
+  write_file(dir + "/nan.obj", "v 0 0 0\nv nan 1 0\nv 0 1 0\nf 1 2 3\n");
+  write_file(dir + "/cut.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2");
+  write_file(dir + "/binary.obj", std::string("ELF\0\x02\x01", 6));
 }
 
 }  // namespace

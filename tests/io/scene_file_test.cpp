@@ -75,8 +75,8 @@ void check_equal(const twinray::Object<T>& a, const twinray::Object<T>& b) {
 
 }  // namespace
 
-TEST_CASE_TEMPLATE("demo.json holds exactly the scene of include/twinray/scene/demo_scene.hpp", T, float,
-                   double) {
+TEST_CASE_TEMPLATE("demo.json holds exactly the scene of include/twinray/scene/demo_scene.hpp", T,
+                   float, double) {
   twinray::io::SceneFile<T> f = twinray::io::load_scene<T>(kScenes + "/demo.json");
   twinray::demo::DemoSetup<T> d = twinray::demo::make_demo_scene<T>(400, 400);
   REQUIRE(f.scene.materials.size() == d.scene.materials.size());
@@ -190,7 +190,7 @@ TEST_CASE("limits hold before the scene is built") {
         "s.json: objects: 1 objects, more than the limit of 0");
 }
 
-TEST_CASE("OBJ: faces fanned, relative indices, and clear errors") {
+TEST_CASE("OBJ: faces triangulated, relative indices, and clear errors") {
   using twinray::io::parse_obj_mesh;
   twinray::Mesh<double> quad =
       parse_obj_mesh<double>("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n", "q.obj");
@@ -216,15 +216,13 @@ TEST_CASE("OBJ: faces fanned, relative indices, and clear errors") {
       parse_obj_mesh<float>("v 0.1 0.2 0.3\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "p.obj");
   CHECK(f.vertices[0].x == static_cast<float>(0.1));
 
-  CHECK(error_of([] { parse_obj_mesh<float>("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n", "b.obj"); }) ==
-        "b.obj: face 1 refers to vertex 7, but only 3 are defined");
   CHECK(error_of([] { parse_obj_mesh<float>("v 0 0 0\nv 1 0 0\nv 0 1 0\n", "n.obj"); }) ==
         "n.obj: no faces (`f a b c` lines)");
   CHECK(error_of([] { parse_obj_mesh<float>("# empty\n", "e.obj"); }) ==
         "e.obj: no vertices (`v x y z` lines)");
   CHECK(error_of([] {
           parse_obj_mesh<float>("v 1e300 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "big.obj");
-        }) == "big.obj: vertex 1 has a coordinate that is not a finite number");
+        }) == "big.obj:1: vertex coordinate 1e300 overflows float");
   twinray::io::ObjLimits limits;
   limits.max_vertices = 2;
   CHECK(error_of([&] {
@@ -237,4 +235,59 @@ TEST_CASE("OBJ: faces fanned, relative indices, and clear errors") {
         }) == "t.obj: 2 triangles, more than the limit of 1");
   CHECK(error_of([] { twinray::io::load_obj_mesh<float>("/nonexistent/x.obj"); }) ==
         "/nonexistent/x.obj: cannot open an OBJ file: No such file or directory");
+}
+
+// Every refused line is named as file:line, with what the file wrote there.
+TEST_CASE("OBJ: each malformed line is refused by file and line, as written") {
+  using twinray::io::parse_obj_mesh;
+  const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";  // lines 1-3
+  struct Bad {
+    std::string text, message;
+  };
+  const Bad cases[] = {
+      {tri + "f 1 2 7\n", "m.obj:4: vertex index 7 is out of range: the file has 3"},
+      {tri + "f 1 2 3 4 9\n", "m.obj:4: vertex index 4 is out of range: the file has 3"},
+      {tri + "f 1 2 3\nf -1 -2 -4\n",
+       "m.obj:5: vertex index -4 is out of range: 3 before this line"},
+      {tri + "f 0 1 2\n", "m.obj:4: vertex index 0: OBJ indices start at 1"},
+      {tri + "f 1 2 3x\n", "m.obj:4: vertex index '3x' is not an integer"},
+      {tri + "f 1 2 3 #\n", "m.obj:4: vertex index '#' is not an integer"},
+      {tri + "f 1/1 2/1 3/1\n",
+       "m.obj:4: texture coordinate index 1 is out of range: the file has 0"},
+      {tri + "vn 0 0 1\nf 1//1 2//2 3//1\n",
+       "m.obj:5: normal index 2 is out of range: the file has 1"},
+      {tri + "f 1/ 2 3\n", "m.obj:4: texture coordinate index '' is not an integer"},
+      {tri + "f 1/1/1/1 2 3\nvt 0 0\nvn 0 0 1\n",
+       "m.obj:4: face corner '1/1/1/1' has more than 3 parts"},
+      {tri + "f 1 2\n", "m.obj:4: a face needs at least 3 corners, got 2"},
+      {tri + "f\n", "m.obj:4: a face needs at least 3 corners, got 0"},
+      {tri + "f 1 2 3\nv 0 0",
+       "m.obj:5: `v` takes 3 coordinates (4 with w, 6 with a colour), got 2"},
+      {"v nan 1 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+       "m.obj:1: vertex coordinate nan is not a finite number"},
+      {"v 0 inf 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+       "m.obj:1: vertex coordinate inf is not a finite number"},
+      {"v 0 1e999 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+       "m.obj:1: vertex coordinate 1e999 is outside the range of double"},
+      {"v 0 0 0\nv 1 0,5 0\nv 0 1 0\nf 1 2 3\n",
+       "m.obj:2: vertex coordinate '0,5' is not a number"},
+      {tri + "vn 0 nan 1\nf 1 2 3\n", "m.obj:4: normal coordinate nan is not a finite number"},
+      {tri + "vt 0 0 0 0\nf 1 2 3\n", "m.obj:4: `vt` takes 1 to 3 coordinates, got 4"},
+      {tri + "f 1 2 3\n\x01", "m.obj:5: byte 0x01: not a text file"},
+      {std::string("v 0 0 0\0", 8), "m.obj:1: byte 0x00: not a text file"},
+      {tri, "m.obj: no faces (`f a b c` lines)"},
+  };
+  for (const Bad& c : cases) {
+    CAPTURE(c.text);
+    CHECK(error_of([&] { parse_obj_mesh<float>(c.text, "m.obj"); }) == c.message);
+  }
+  // What a well-formed file may hold: comments, objects, groups, smoothing, materials,
+  // w and vertex colours, texture coordinates and normals, forward references, CRLF.
+  auto mesh = parse_obj_mesh<double>(
+      "# a comment\r\nmtllib x.mtl\no thing\ng part\ns 1\nusemtl red\n"
+      "v 0 0 0 1\nv 1 0 0 0.5 0.5 0.5\nv +0 1 0\nvt 0 0\nvt 1 0 0\nvn 0 0 1\n"
+      "f 1/1/1 2/2/1 3//1\r\nf 1 2 4\nv 1 1 -1e-3\n",
+      "ok.obj");
+  CHECK(mesh.vertices.size() == 4);
+  CHECK(mesh.triangles.size() == 2);
 }

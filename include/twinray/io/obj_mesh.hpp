@@ -3,21 +3,25 @@
 // defines TWINRAY_WITH_TINYOBJLOADER when it finds it; without it only
 // read_small_file() is here and scene files cannot name .obj meshes.
 //
-// Only geometry is read: vertex positions and faces (polygons are fanned into
-// triangles). Normals, texture coordinates, groups and `mtllib`/`usemtl` are ignored:
-// the mesh takes the material its scene gives it. The file is size-checked before it
-// is read, and the vertex and triangle counts before the mesh is built, so a hostile
-// file cannot exhaust memory. Errors are twinray::Error(InvalidInput) whose message
-// starts with the file name: `bunny.obj: line 12: face index 90 out of range`.
+// Only geometry is read: vertex positions and faces (tinyobjloader triangulates
+// polygons: a quad along a shortest diagonal, larger ones by ear clipping). Normals, texture
+// coordinates, groups and `mtllib`/`usemtl` are ignored: the mesh takes the material its scene
+// gives it. The file is size-checked before it is read, and the vertex and triangle counts before
+// the mesh is built, so a hostile file cannot exhaust memory. Errors are
+// twinray::Error(InvalidInput) whose message starts with the file name, and the line where there is
+// one: `bunny.obj:12: vertex index 90 is out of range: the file has 34`.
 #pragma once
 
 #include <array>
+#include <charconv>
+#include <cstdio>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <string_view>
 
 #include <sys/stat.h>
 
@@ -69,37 +73,178 @@ struct ObjLimits {
 
 namespace detail {
 
-// Counts the `v` and `f` records (and the triangles the faces fan into) without
-// building anything, so the limits hold before tinyobjloader allocates.
+// The strict pass over the text, before tinyobjloader sees it. tinyobjloader drops
+// what it cannot use (a face with an index out of range or fewer than three corners, a
+// truncated last line) and reads `nan` as a number; a mesh that silently loses faces
+// is worse than a refusal. So every line is checked here, and the first bad one is
+// named as `file:line` with the text exactly as the file wrote it. It also counts the
+// records, so the limits hold (and a file with no faces is refused) before
+// tinyobjloader allocates anything.
 struct ObjCounts {
-  long long vertices = 0, triangles = 0;
+  long long vertices = 0, texcoords = 0, normals = 0, triangles = 0;
 };
 
-inline ObjCounts count_obj(const std::string& text) {
-  ObjCounts c;
-  size_t i = 0, n = text.size();
-  while (i < n) {
+inline bool obj_space(char c) {
+  return c == ' ' || c == '\t' || c == '\r';
+}
+
+// Splits one line into its whitespace-separated tokens (at most `max` of them; the
+// count is exact up to max + 1).
+struct ObjLine {
+  static constexpr int kMax = 8;
+  std::string_view token[kMax];
+  int count = 0;  // every token, even those past kMax
+};
+
+inline ObjLine split_obj_line(std::string_view line) {
+  ObjLine out;
+  size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && obj_space(line[i])) ++i;
+    if (i >= line.size()) break;
+    size_t j = i;
+    while (j < line.size() && !obj_space(line[j])) ++j;
+    if (out.count < ObjLine::kMax) out.token[out.count] = line.substr(i, j - i);
+    ++out.count;
+    i = j;
+  }
+  return out;
+}
+
+inline std::string obj_where(const std::string& name, long long line) {
+  return name + ":" + std::to_string(line) + ": ";
+}
+
+// A coordinate: the whole token a number (std::from_chars, as JSON numbers are read),
+// finite, and finite in T too.
+template <class T>
+void obj_number(std::string_view token, const std::string& name, long long line, const char* what) {
+  double value = 0;
+  const char* first = token.data();
+  const char* last = first + token.size();
+  if (first != last && *first == '+') ++first;  // from_chars takes no '+'
+  auto result = std::from_chars(first, last, value);
+  std::string written(token);
+  if (result.ptr != last || result.ec == std::errc::invalid_argument)
+    throw invalid_input(obj_where(name, line) + what + " '" + written + "' is not a number");
+  if (result.ec == std::errc::result_out_of_range)
+    throw invalid_input(obj_where(name, line) + what + " " + written +
+                        " is outside the range of double");
+  if (!std::isfinite(value))
+    throw invalid_input(obj_where(name, line) + what + " " + written + " is not a finite number");
+  if (!std::isfinite(static_cast<T>(value)))
+    throw invalid_input(obj_where(name, line) + what + " " + written + " overflows " +
+                        (sizeof(T) == sizeof(float) ? "float" : "double"));
+}
+
+// One index of a face corner, as written: nonzero, and in range (positive: 1 to the
+// file's count; negative: back from the records before this line).
+inline void obj_index(std::string_view token, long long total, long long before, const char* what,
+                      const std::string& name, long long line) {
+  long long value = 0;
+  const char* first = token.data();
+  const char* last = first + token.size();
+  auto result = std::from_chars(first, last, value);
+  if (token.empty() || result.ec != std::errc() || result.ptr != last)
+    throw invalid_input(obj_where(name, line) + what + " index '" + std::string(token) +
+                        "' is not an integer");
+  if (value == 0)
+    throw invalid_input(obj_where(name, line) + what + " index 0: OBJ indices start at 1");
+  if (value > total)
+    throw invalid_input(obj_where(name, line) + what + " index " + std::string(token) +
+                        " is out of range: the file has " + std::to_string(total));
+  if (value < 0 && -value > before)
+    throw invalid_input(obj_where(name, line) + what + " index " + std::string(token) +
+                        " is out of range: " + std::to_string(before) + " before this line");
+}
+
+// Checks every line and counts the records; see above.
+template <class T>
+ObjCounts scan_obj(const std::string& text, const std::string& name) {
+  // First the totals (positive indices may name records further down the file).
+  ObjCounts total;
+  for (size_t i = 0, n = text.size(); i < n;) {
     size_t end = text.find('\n', i);
     if (end == std::string::npos) end = n;
     size_t p = i;
     while (p < end && (text[p] == ' ' || text[p] == '\t')) ++p;
-    if (p + 1 < end && (text[p + 1] == ' ' || text[p + 1] == '\t')) {
-      if (text[p] == 'v') {
-        ++c.vertices;
-      } else if (text[p] == 'f') {
-        long long corners = 0;
-        bool in_token = false;
-        for (size_t q = p + 1; q < end; ++q) {
-          bool space = text[q] == ' ' || text[q] == '\t' || text[q] == '\r';
-          if (!space && !in_token) ++corners;
-          in_token = !space;
-        }
-        if (corners >= 3) c.triangles += corners - 2;
+    if (p + 1 < end && text[p] == 'v') {
+      char c = text[p + 1];
+      if (c == ' ' || c == '\t')
+        ++total.vertices;
+      else if (p + 2 < end && (text[p + 2] == ' ' || text[p + 2] == '\t')) {
+        if (c == 't') ++total.texcoords;
+        if (c == 'n') ++total.normals;
       }
     }
     i = end + 1;
   }
-  return c;
+  ObjCounts seen;
+  long long line_number = 0;
+  for (size_t i = 0, n = text.size(); i < n;) {
+    size_t end = text.find('\n', i);
+    if (end == std::string::npos) end = n;
+    ++line_number;
+    std::string_view line(text.data() + i, end - i);
+    i = end + 1;
+    for (char c : line) {
+      auto u = static_cast<unsigned char>(c);
+      if (u < 0x20 && c != '\t' && c != '\r') {
+        char hex[8];
+        std::snprintf(hex, sizeof hex, "0x%02x", u);
+        throw invalid_input(obj_where(name, line_number) + "byte " + hex + ": not a text file");
+      }
+    }
+    ObjLine t = split_obj_line(line);
+    if (t.count == 0 || t.token[0][0] == '#') continue;  // blank, or a comment line
+    std::string_view key = t.token[0];
+    if (key == "v" || key == "vn" || key == "vt") {
+      const bool v = key == "v", vn = key == "vn";
+      const int least = v || vn ? 3 : 1;
+      const int most = v ? 7 : 3;  // v: x y z [w] or x y z r g b
+      if (t.count - 1 < least || t.count - 1 > most || (v && t.count - 1 == 5))
+        throw invalid_input(obj_where(name, line_number) + "`" + std::string(key) + "` takes " +
+                            (v    ? "3 coordinates (4 with w, 6 with a colour)"
+                             : vn ? "3 coordinates"
+                                  : "1 to 3 coordinates") +
+                            ", got " + std::to_string(t.count - 1));
+      const char* what = v ? "vertex coordinate" : vn ? "normal coordinate" : "texture coordinate";
+      for (int k = 1; k < t.count; ++k) obj_number<T>(t.token[k], name, line_number, what);
+      ++(v ? seen.vertices : vn ? seen.normals : seen.texcoords);
+    } else if (key == "f") {
+      if (t.count - 1 < 3)
+        throw invalid_input(obj_where(name, line_number) + "a face needs at least 3 corners, got " +
+                            std::to_string(t.count - 1));
+      // Corners past ObjLine::kMax are checked by splitting again (rare: n-gons).
+      size_t pos = 0;
+      for (int k = 0; k < t.count; ++k) {
+        while (pos < line.size() && obj_space(line[pos])) ++pos;
+        size_t stop = pos;
+        while (stop < line.size() && !obj_space(line[stop])) ++stop;
+        std::string_view corner = line.substr(pos, stop - pos);
+        pos = stop;
+        if (k == 0) continue;  // the key
+        size_t s1 = corner.find('/');
+        std::string_view vi = corner.substr(0, s1);
+        obj_index(vi, total.vertices, seen.vertices, "vertex", name, line_number);
+        if (s1 == std::string_view::npos) continue;
+        std::string_view rest = corner.substr(s1 + 1);
+        size_t s2 = rest.find('/');
+        std::string_view ti = rest.substr(0, s2);
+        if (s2 == std::string_view::npos || !ti.empty())
+          obj_index(ti, total.texcoords, seen.texcoords, "texture coordinate", name, line_number);
+        if (s2 != std::string_view::npos) {
+          std::string_view ni = rest.substr(s2 + 1);
+          if (ni.find('/') != std::string_view::npos)
+            throw invalid_input(obj_where(name, line_number) + "face corner '" +
+                                std::string(corner) + "' has more than 3 parts");
+          obj_index(ni, total.normals, seen.normals, "normal", name, line_number);
+        }
+      }
+      seen.triangles += t.count - 3;
+    }
+  }
+  return seen;
 }
 
 // tinyobjloader turns the joint ids of `vw` lines (skin weights, which twinray does not
@@ -129,7 +274,9 @@ inline std::string without_vertex_weights(const std::string& text) {
 template <class T>
 Mesh<T> parse_obj_mesh(const std::string& text, const std::string& name,
                        const ObjLimits& limits = {}) {
-  detail::ObjCounts counts = detail::count_obj(text);
+  detail::ObjCounts counts = detail::scan_obj<T>(text, name);
+  if (counts.vertices == 0) throw invalid_input(name + ": no vertices (`v x y z` lines)");
+  if (counts.triangles == 0) throw invalid_input(name + ": no faces (`f a b c` lines)");
   if (counts.vertices > limits.max_vertices)
     throw invalid_input(name + ": " + std::to_string(counts.vertices) +
                         " vertices, more than the limit of " + std::to_string(limits.max_vertices));
