@@ -22,6 +22,7 @@
 #include <twinray/scene/validate.hpp>
 #include <twinray/scene/camera.hpp>
 #include <twinray/scene/scene.hpp>
+#include <twinray/scene/transform.hpp>
 #include <twinray/pack/pack.hpp>
 #include <twinray/backend/backend.hpp>
 #include <twinray/backend/render.hpp>

@@ -169,6 +169,10 @@ std::vector<BadScene> bad_scenes() {
        "objects[0].material: no material named \"rde\" (did you mean \"red\"?)"},
       {edit(R"("radius": 1, "material": "red")", R"("radius": 1)"),
        "objects[0].material: missing (required)"},
+      {edit(R"("radius": 1, "material": "red")",
+            R"("radius": 1, "material": "red", "transform": { "scale": [1, 2, 1] })"),
+       "objects[0].transform: a sphere takes only uniform scale, rotation and translation: this "
+       "transform would make it an ellipsoid"},
       {edit(R"("normal": [0, 1, 0])", R"("normal": [0, 0, 0])"),
        "objects[1].normal: must be a non-zero vector"},
       {edit(R"("vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]])",

@@ -114,3 +114,16 @@ TEST_CASE("the library was compiled without floating-point contraction") {
   // The CMake target carries -ffp-contract=off; without it the CPU image would differ.
   CHECK_FALSE(fp_contraction_detected());
 }
+
+// Placed objects are ordinary objects once placed; an arbitrary rotation (not a quarter
+// turn, so every coordinate is rounded) and a shear still give the same bits.
+TEST_CASE_TEMPLATE("parity: objects placed by transforms", T, float, double) {
+  auto d = twinray::demo::make_demo_scene<T>(kW, kH);
+  auto turn = Transform::scale_rotate_translate({0.7, 0.7, 0.7}, {1, 2, 3}, 37, {0.3, -0.2, 0.1});
+  for (auto& object : d.scene.objects)
+    if (!std::holds_alternative<Plane<T>>(object)) place(object, turn);
+  const double shear[4][4] = {{1, 0.3, 0, 0}, {0, 1, 0, 0.1}, {0, 0.2, 1, 0}, {0, 0, 0, 1}};
+  for (auto& object : d.scene.objects)
+    if (std::holds_alternative<Plane<T>>(object)) place(object, Transform::from_rows(shear));
+  test::check_parity(d.scene, d.camera, RenderOptions{});
+}

@@ -291,3 +291,113 @@ TEST_CASE("OBJ: each malformed line is refused by file and line, as written") {
   CHECK(mesh.vertices.size() == 4);
   CHECK(mesh.triangles.size() == 2);
 }
+
+namespace {
+
+// kSmall with `object` in front of its mesh.
+std::string with_object(const std::string& object) {
+  std::string text = kSmall;
+  text.replace(text.find(R"({ "type": "mesh")"), 0, object + ",");
+  return text;
+}
+
+}  // namespace
+
+TEST_CASE("transform: objects are placed once, at load") {
+  using vec3 = glm::vec<3, float>;
+  auto file = twinray::io::parse_scene<float>(
+      with_object(R"({ "type": "sphere", "center": [1, 0, 0], "radius": 0.5, "material": "m",
+                       "transform": { "scale": 2, "rotate": { "axis": [0, 0, 1], "degrees": 90 },
+                                      "translate": [0, 0, -4] } })"),
+      "t.json");
+  auto& s = std::get<twinray::Sphere<float>>(file.scene.objects[0]);
+  CHECK(s.center == vec3(0, 2, -4));
+  CHECK(s.radius == 1.0f);
+  // The same placement as a matrix, on the mesh.
+  std::string text = kSmall;
+  text.replace(
+      text.find(R"("material": "m" })"), 0,
+      R"("transform": { "matrix": [[0, -2, 0, 0], [2, 0, 0, 0], [0, 0, 2, -4], [0, 0, 0, 1]] }, )");
+  auto mesh_file = twinray::io::parse_scene<float>(text, "t.json");
+  auto& mesh = std::get<twinray::Mesh<float>>(mesh_file.scene.objects[0]);
+  CHECK(mesh.vertices[1] == vec3(0, 2, -4));
+  CHECK(mesh.vertices[3] == vec3(0, 0, -2));
+  // A plane keeps a normal perpendicular to it.
+  auto plane = twinray::io::parse_scene<double>(
+      with_object(R"({ "type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "material": "m",
+                       "transform": { "rotate": { "axis": [1, 0, 0], "degrees": 90 } } })"),
+      "t.json");
+  CHECK(std::get<twinray::Plane<double>>(plane.scene.objects[0]).normal == glm::dvec3(0, 0, 1));
+}
+
+TEST_CASE("transform: what is refused, by file and JSON path") {
+  struct Bad {
+    std::string object, message;
+  };
+  const std::string sphere =
+      R"({ "type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m", "transform": )";
+  const std::string tri =
+      R"({ "type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "material": "m", "transform": )";
+  const Bad cases[] = {
+      {sphere + R"({ "scale": [1, 2, 1] } })",
+       "t.json: objects[0].transform: a sphere takes only uniform scale, rotation and translation: "
+       "this transform would make it an ellipsoid"},
+      {tri + R"({ "scale": [1, 0, 1] } })",
+       "t.json: objects[0].transform.scale: must not be 0: a zero scale flattens the object (a "
+       "singular transform)"},
+      {tri + R"({ "matrix": [[1, 0, 0, 0], [0, 1, 0, 0], [1, 1, 0, 0], [0, 0, 0, 1]] } })",
+       "t.json: objects[0].transform.matrix: the transform is singular (determinant 0.000000)"},
+      {tri + R"({ "matrix": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 1, 1]] } })",
+       "t.json: objects[0].transform.matrix: the last row must be [0, 0, 0, 1] (an affine map)"},
+      {tri + R"({ "matrix": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0]] } })",
+       "t.json: objects[0].transform.matrix: must be 4 rows of 4 numbers (row-major), got an array "
+       "of 3"},
+      {tri +
+           R"({ "matrix": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], "translate": [1, 0, 0] } })",
+       "t.json: objects[0].transform.translate: a transform takes either \"matrix\" or "
+       "\"translate\", "
+       "\"rotate\" and \"scale\", not both"},
+      {tri + R"({ "rotate": { "axis": [0, 0, 0], "degrees": 10 } } })",
+       "t.json: objects[0].transform.rotate.axis: must be a non-zero vector, got [0,0,0]"},
+      {tri + R"({ "rotate": { "axis": [0, 1, 0] } } })",
+       "t.json: objects[0].transform.rotate.degrees: missing (required)"},
+      {tri + R"({ "translate": [1, "2", 3] } })",
+       "t.json: objects[0].transform.translate[1]: must be a number, got a string (\"2\")"},
+      {tri + R"({ "move": [1, 2, 3] } })", ""},  // the unknown-key message is checked below
+  };
+  for (const Bad& c : cases) {
+    CAPTURE(c.object);
+    std::string message =
+        error_of([&] { twinray::io::parse_scene<float>(with_object(c.object), "t.json"); });
+    if (c.message.empty())
+      CHECK(message.rfind("t.json: objects[0].transform.move: unknown key", 0) == 0);
+    else
+      CHECK(message == c.message);
+  }
+}
+
+// A path moves the placed object: the transform puts it in the world, then the path
+// translates it so that its anchor (here the mesh's box center) sits on the path.
+TEST_CASE("transform: animation paths move the placed object") {
+  std::string text = kSmall;
+  text.replace(text.find(R"("material": "m" })"), 0,
+               R"("transform": { "scale": 2, "rotate": { "axis": [0, 1, 0], "degrees": 90 } }, )");
+  text.replace(text.rfind("]\n}"), 3,
+               R"(],
+  "animation": { "frames": 3, "paths": [ { "target": "objects[0]", "type": "keyframes",
+    "keys": [ { "frame": 0, "position": [5, 5, 5] }, { "frame": 2, "position": [7, 5, 5] } ] } ] }
+})");
+  auto file = twinray::io::parse_scene<double>(text, "a.json");
+  auto at = [&](long long frame) {
+    auto f = file;
+    twinray::io::apply_frame(f, frame);
+    return std::get<twinray::Mesh<double>>(f.scene.objects[0]).vertices;
+  };
+  // Placed: (0,0,0) (1,0,0) (0,1,0) (0,0,1) -> (0,0,0) (0,0,-2) (0,2,0) (2,0,0), box
+  // center (1, 1, -1); the path puts that center on (5, 5, 5), then (6, 5, 5).
+  auto v0 = at(0), v1 = at(1);
+  CHECK(v0[0] == glm::dvec3(4, 4, 6));
+  CHECK(v0[1] == glm::dvec3(4, 4, 4));
+  CHECK(v0[3] == glm::dvec3(6, 4, 6));
+  CHECK(v1[3] == glm::dvec3(7, 4, 6));
+}

@@ -33,6 +33,7 @@
 #include <twinray/scene/animation.hpp>
 #include <twinray/scene/camera.hpp>
 #include <twinray/scene/scene.hpp>
+#include <twinray/scene/transform.hpp>
 #include <twinray/scene/validate.hpp>
 #include <twinray/io/animation_json.hpp>
 #include <twinray/io/json_read.hpp>
@@ -87,6 +88,7 @@ class SceneReader : public JsonReader<T> {
   using Base::index_path;
   using Base::integer;
   using Base::key_path;
+  using Base::number;
   using Base::optional;
   using Base::require;
   using Base::require_array;
@@ -307,15 +309,15 @@ class SceneReader : public JsonReader<T> {
       std::string type = choice(require(o, path, "type"), key_path(path, "type"),
                                 {"sphere", "plane", "triangle", "mesh"});
       if (type == "sphere") {
-        check_keys(o, path, {"type", "center", "radius", "material"});
+        check_keys(o, path, {"type", "center", "radius", "material", "transform"});
         Sphere<T> s;
         s.center = vector3(require(o, path, "center"), key_path(path, "center"));
         s.radius =
             scalar(require(o, path, "radius"), key_path(path, "radius"), 0.0, INFINITY, true);
         s.material = material_ref(o, path, out);
-        out.scene.add(s);
+        add_placed(o, path, Object<T>(s), out);
       } else if (type == "plane") {
-        check_keys(o, path, {"type", "point", "normal", "material"});
+        check_keys(o, path, {"type", "point", "normal", "material", "transform"});
         Plane<T> p;
         p.point = vector3(require(o, path, "point"), key_path(path, "point"));
         p.normal = vector3(require(o, path, "normal"), key_path(path, "normal"));
@@ -324,9 +326,9 @@ class SceneReader : public JsonReader<T> {
           fail(key_path(path, "normal"),
                "must be a non-zero vector of finite length, got " + show(o["normal"]));
         p.material = material_ref(o, path, out);
-        out.scene.add(p);
+        add_placed(o, path, Object<T>(p), out);
       } else if (type == "triangle") {
-        check_keys(o, path, {"type", "vertices", "material"});
+        check_keys(o, path, {"type", "vertices", "material", "transform"});
         std::string vpath = key_path(path, "vertices");
         const Json& v = require(o, path, "vertices");
         if (!v.is_array() || v.size() != 3)
@@ -335,15 +337,98 @@ class SceneReader : public JsonReader<T> {
         Triangle<T> t;
         for (size_t k = 0; k < 3; ++k) t.vertices[k] = vector3(v[k], index_path(vpath, k));
         t.material = material_ref(o, path, out);
-        out.scene.add(t);
+        add_placed(o, path, Object<T>(t), out);
       } else {
-        out.scene.add(read_mesh(o, path, out));
+        add_placed(o, path, Object<T>(read_mesh(o, path, out)), out);
+      }
+    }
+  }
+
+  // Adds the object, placed by its "transform" when it has one (scene/transform.hpp).
+  void add_placed(const Json& o, const std::string& path, Object<T> object, SceneFile<T>& out) {
+    if (const Json* t = optional(o, "transform")) {
+      std::string tpath = key_path(path, "transform");
+      Transform transform = read_transform(*t, tpath);
+      try {
+        place(object, transform);
+      } catch (const Error& e) {
+        fail(tpath, e.what());
+      }
+    }
+    out.scene.add(object);
+  }
+
+  // {"translate": [x, y, z], "rotate": {"axis": [x, y, z], "degrees": a}, "scale": s or
+  // [sx, sy, sz]} (each optional; applied as scale, rotate, translate), or {"matrix":
+  // 4 rows of 4 numbers}.
+  Transform read_transform(const Json& t, const std::string& path) const {
+    require_object(t, path);
+    check_keys(t, path, {"translate", "rotate", "scale", "matrix"});
+    auto dvector = [&](const Json& v, const std::string& p) {
+      if (!v.is_array() || v.size() != 3)
+        fail(p, "must be an array of 3 numbers, got " + kind_of(v));
+      return glm::dvec3(number(v[0], index_path(p, 0)), number(v[1], index_path(p, 1)),
+                        number(v[2], index_path(p, 2)));
+    };
+    {
+      if (const Json* m = optional(t, "matrix")) {
+        std::string mpath = key_path(path, "matrix");
+        for (const char* key : {"translate", "rotate", "scale"})
+          if (optional(t, key))
+            fail(key_path(path, key),
+                 "a transform takes either \"matrix\" or \"translate\", "
+                 "\"rotate\" and \"scale\", not both");
+        if (!m->is_array() || m->size() != 4)
+          fail(mpath, "must be 4 rows of 4 numbers (row-major), got " + kind_of(*m));
+        double rows[4][4];
+        for (size_t r = 0; r < 4; ++r) {
+          std::string rpath = index_path(mpath, r);
+          const Json& row = (*m)[r];
+          if (!row.is_array() || row.size() != 4)
+            fail(rpath, "must be a row of 4 numbers, got " + kind_of(row));
+          for (size_t c = 0; c < 4; ++c) rows[r][c] = number(row[c], index_path(rpath, c));
+        }
+        try {
+          return Transform::from_rows(rows);
+        } catch (const Error& e) {
+          fail(mpath, e.what());
+        }
+      }
+      glm::dvec3 scale(1.0), axis(0.0, 1.0, 0.0), translate(0.0);
+      double degrees = 0.0;
+      if (const Json* sc = optional(t, "scale")) {
+        std::string spath = key_path(path, "scale");
+        if (sc->is_number()) {
+          double k = number(*sc, spath);
+          scale = glm::dvec3(k);
+        } else {
+          scale = dvector(*sc, spath);
+        }
+        for (int k = 0; k < 3; ++k)
+          if (scale[k] == 0.0)
+            fail(spath, "must not be 0: a zero scale flattens the object (a singular transform)");
+      }
+      if (const Json* r = optional(t, "rotate")) {
+        std::string rpath = key_path(path, "rotate");
+        require_object(*r, rpath);
+        check_keys(*r, rpath, {"axis", "degrees"});
+        axis = dvector(require(*r, rpath, "axis"), key_path(rpath, "axis"));
+        if (!(glm::length(axis) > 0.0))
+          fail(key_path(rpath, "axis"), "must be a non-zero vector, got " + show((*r)["axis"]));
+        degrees = number(require(*r, rpath, "degrees"), key_path(rpath, "degrees"));
+      }
+      if (const Json* tr = optional(t, "translate"))
+        translate = dvector(*tr, key_path(path, "translate"));
+      try {
+        return Transform::scale_rotate_translate(scale, axis, degrees, translate);
+      } catch (const Error& e) {
+        fail(path, e.what());
       }
     }
   }
 
   Mesh<T> read_mesh(const Json& o, const std::string& path, SceneFile<T>& out) {
-    check_keys(o, path, {"type", "vertices", "triangles", "obj", "material"});
+    check_keys(o, path, {"type", "vertices", "triangles", "obj", "material", "transform"});
     Mesh<T> mesh;
     const Json* obj = optional(o, "obj");
     if (obj) {
