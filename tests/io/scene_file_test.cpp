@@ -401,3 +401,18 @@ TEST_CASE("transform: animation paths move the placed object") {
   CHECK(v0[3] == glm::dvec3(6, 4, 6));
   CHECK(v1[3] == glm::dvec3(7, 4, 6));
 }
+
+// tinyobjloader's warnings: the expected ones (materials, unnamed groups) pass, any other
+// one refuses the file.
+TEST_CASE("OBJ: tinyobjloader warnings are read, not dropped") {
+  using twinray::io::detail::unexpected_obj_warning;
+  CHECK(unexpected_obj_warning("") == "");
+  CHECK(unexpected_obj_warning(
+            "material [ 'red' ] not found in .mtl\nEmpty group name. line: 3\n") == "");
+  CHECK(unexpected_obj_warning("material [ 'red' ] not found in .mtl\nDegenerated face found\n.") ==
+        "tinyobjloader: Degenerated face found");
+  // And through the loader: a file whose materials tinyobjloader cannot find still loads.
+  auto mesh = twinray::io::parse_obj_mesh<float>(
+      "mtllib x.mtl\nusemtl red\ng\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "m.obj");
+  CHECK(mesh.triangles.size() == 1);
+}

@@ -247,6 +247,30 @@ ObjCounts scan_obj(const std::string& text, const std::string& name) {
   return seen;
 }
 
+// tinyobjloader's warnings, none thrown away unread: those about materials (twinray
+// does not read `mtllib`/`usemtl`, and passes tinyobjloader no .mtl, so every `usemtl`
+// warns) and unnamed groups are expected; any other one (a dropped face, an index out of
+// range) is a file problem that scan_obj should have named first, and is returned so
+// the load refuses the file rather than render a mesh with faces missing.
+inline std::string unexpected_obj_warning(const std::string& warnings) {
+  size_t i = 0;
+  while (i < warnings.size()) {
+    size_t end = warnings.find('\n', i);
+    if (end == std::string::npos) end = warnings.size();
+    std::string line = warnings.substr(i, end - i);
+    i = end + 1;
+    while (!line.empty() && (line.back() == ' ' || line.back() == '.' || line.back() == '\r'))
+      line.pop_back();
+    while (!line.empty() && (line.front() == ' ' || line.front() == '.')) line.erase(0, 1);
+    if (line.empty()) continue;
+    for (const char* expected : {"material [", "Material file [",
+                                 "Looks like empty filename for mtllib", "Empty group name"})
+      if (line.rfind(expected, 0) == 0) line.clear();
+    if (!line.empty()) return "tinyobjloader: " + line;
+  }
+  return "";
+}
+
 // tinyobjloader turns the joint ids of `vw` lines (skin weights, which twinray does not
 // read) into int without a range check: undefined behaviour for `vw 1 2.5e10 1`, found
 // by fuzz/fuzz_obj_mesh.cpp (tests/fuzz/regressions/obj_mesh/). Such lines become comments.
@@ -295,6 +319,8 @@ Mesh<T> parse_obj_mesh(const std::string& text, const std::string& name,
     while (!error.empty() && (error.back() == '\n' || error.back() == ' ')) error.pop_back();
     throw invalid_input(name + ": malformed OBJ: " + (error.empty() ? "parse failed" : error));
   }
+  if (std::string problem = detail::unexpected_obj_warning(reader.Warning()); !problem.empty())
+    throw invalid_input(name + ": " + problem);
   const tinyobj::attrib_t& attrib = reader.GetAttrib();
   Mesh<T> mesh;
   size_t n_vertices = attrib.vertices.size() / 3;
