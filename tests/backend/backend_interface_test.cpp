@@ -184,32 +184,3 @@ TEST_CASE("backend: bad requests are refused before anything renders") {
                          doctest::Contains("lights[0].intensity"), Error);
   }
 }
-
-#ifdef TWINRAY_WITH_OPENCL
-// On a device that computes in host memory (PoCL's CPU device) the OpenCL buffers are
-// the packed arrays themselves: the backend keeps the packed scene alive as long as its
-// buffers point into it, and lets it go when a new scene replaces it. Elsewhere the
-// arrays are copied to the device and the backend keeps nothing.
-TEST_CASE("backend: OpenCL on a CPU device renders from the packed arrays in place") {
-  if (!opencl_available()) {
-    MESSAGE("no OpenCL device: skipped");
-    return;
-  }
-  auto d = demo::make_demo_scene<float>(40, 30);
-  auto renderer = quiet_backend<float>(Backend::OpenCL);
-  auto* ocl = dynamic_cast<opencl::OpenCLBackend<float>*>(renderer.get());
-  REQUIRE(ocl != nullptr);
-  const bool in_place = ocl->device().is_cpu;
-  auto first = share(pack_scene(d.scene));
-  renderer->set_scene(first);
-  Image<float> a = renderer->render({d.camera, d.scene.lights, RenderOptions{}});
-  CHECK(first.use_count() == (in_place ? 2 : 1));
-  Image<float> b = renderer->render({d.camera, d.scene.lights, RenderOptions{}});
-  CHECK(test::differing_values(a, b) == 0);
-  renderer->set_scene(share(pack_scene(d.scene)));
-  Image<float> c = renderer->render({d.camera, d.scene.lights, RenderOptions{}});
-  CHECK(first.use_count() == 1);
-  CHECK(test::differing_values(a, c) == 0);
-  CHECK(test::differing_values(a, render(d.scene, d.camera, RenderOptions{})) == 0);
-}
-#endif

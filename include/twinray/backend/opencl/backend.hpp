@@ -93,12 +93,8 @@ class OpenCLBackend final : public RenderBackend<T> {
     const auto t0 = clock::now();
     const bool uploading = pending_ != nullptr;
     if (uploading) {
-      // A CPU device computes in host memory: its buffers are the packed arrays
-      // themselves, kept alive here, instead of a second copy of the scene.
-      const bool in_place = dev.is_cpu;
-      buffers_.upload_scene(ctx_, *pending_, in_place);
-      in_place_scene_ = in_place ? pending_ : nullptr;  // after the old buffers are gone
-      pending_.reset();                                 // otherwise the device holds the arrays now
+      buffers_.upload_scene(ctx_, *pending_);
+      pending_.reset();  // the device holds the arrays now
       ++scene_uploads_;
     }
     buffers_.upload_frame(ctx_, frame);
@@ -235,9 +231,6 @@ class OpenCLBackend final : public RenderBackend<T> {
   Context& ctx_;
   SceneSummary<T> scene_;  // what pack_frame reads; the arrays live on the device
   std::shared_ptr<const PackedScene<T>> pending_;  // set, not yet uploaded
-  // The scene a CPU device's buffers point into (SceneBuffers::upload_scene, in place);
-  // declared before buffers_, so it outlives them.
-  std::shared_ptr<const PackedScene<T>> in_place_scene_;
   bool has_scene_ = false;
   long long scene_uploads_ = 0;
   SceneBuffers buffers_;

@@ -34,23 +34,6 @@ class Buffer {
     capacity_ = want;
   }
 
-  // Makes the buffer the host memory at `data` itself (CL_MEM_USE_HOST_PTR, read-only),
-  // for devices that run on the host's memory: no second copy of the scene. `data` must
-  // stay alive and unchanged while the buffer is in use; the next reserve() or write()
-  // allocates a buffer of its own.
-  void wrap(cl_context context, const void* data, size_t bytes, const char* what) {
-    release();
-    if (bytes == 0) {
-      reserve(context, CL_MEM_READ_ONLY, 0, what);
-      return;
-    }
-    cl_int err = CL_SUCCESS;
-    mem_ = clCreateBuffer(context, CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR, bytes,
-                          const_cast<void*>(data), &err);
-    check(err, what);
-    capacity_ = 0;  // not ours to write into
-  }
-
   // Writes `bytes` from `data` to the start, growing the buffer first when needed.
   void write(const Context& ctx, cl_mem_flags flags, const void* data, size_t bytes,
              const char* what) {
@@ -77,16 +60,12 @@ constexpr cl_uint kSceneArgs = 8;
 
 class SceneBuffers {
  public:
-  // The scene's six arrays, sent once per scene; or, with `in_place` (a device that
-  // runs in host memory), wrapped where they are, and `ps` must then outlive them.
+  // The scene's six arrays, sent once per scene.
   template <class T>
-  void upload_scene(const Context& ctx, const PackedScene<T>& ps, bool in_place) {
+  void upload_scene(const Context& ctx, const PackedScene<T>& ps) {
     auto put = [&](Buffer& b, const auto& v) {
-      if (in_place)
-        b.wrap(ctx.context(), v.data(), v.size() * sizeof(v[0]), "clCreateBuffer (scene data)");
-      else
-        b.write(ctx, CL_MEM_READ_ONLY, v.data(), v.size() * sizeof(v[0]),
-                "clCreateBuffer (scene data)");
+      b.write(ctx, CL_MEM_READ_ONLY, v.data(), v.size() * sizeof(v[0]),
+              "clCreateBuffer (scene data)");
     };
     put(spheres_, ps.spheres);
     put(triangles_, ps.triangles);
