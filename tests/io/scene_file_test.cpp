@@ -37,6 +37,13 @@ const char* kSmall = R"({
   ]
 })";
 
+// kSmall with `object` in front of its mesh.
+std::string with_object(const std::string& object) {
+  std::string text = kSmall;
+  text.replace(text.find(R"({ "type": "mesh")"), 0, object + ",");
+  return text;
+}
+
 template <class T>
 void check_equal(const twinray::Material<T>& a, const twinray::Material<T>& b) {
   CHECK(a.color == b.color);
@@ -138,9 +145,8 @@ TEST_CASE("messages: FILE: JSON.PATH: problem") {
   CHECK(error_of([&] { twinray::io::parse_scene<float>(text, "scene.json"); }) ==
         "scene.json: objects[0].triangles[0][2]: vertex index 4 out of range: the mesh has 4 "
         "vertices (indices 0 to 3)");
-  std::string sphere = kSmall;
-  sphere.replace(sphere.find(R"({ "type": "mesh")"), 0,
-                 R"({ "type": "sphere", "center": [0, 0, 0], "radius": -1, "material": "m" },)");
+  std::string sphere =
+      with_object(R"({ "type": "sphere", "center": [0, 0, 0], "radius": -1, "material": "m" })");
   CHECK(error_of([&] { twinray::io::parse_scene<float>(sphere, "scene.json"); }) ==
         "scene.json: objects[0].radius: must be > 0, got -1");
 }
@@ -291,17 +297,6 @@ TEST_CASE("OBJ: each malformed line is refused by file and line, as written") {
   CHECK(mesh.vertices.size() == 4);
   CHECK(mesh.triangles.size() == 2);
 }
-
-namespace {
-
-// kSmall with `object` in front of its mesh.
-std::string with_object(const std::string& object) {
-  std::string text = kSmall;
-  text.replace(text.find(R"({ "type": "mesh")"), 0, object + ",");
-  return text;
-}
-
-}  // namespace
 
 TEST_CASE("transform: objects are placed once, at load") {
   using vec3 = glm::vec<3, float>;

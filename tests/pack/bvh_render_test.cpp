@@ -91,22 +91,8 @@ TEST_CASE_TEMPLATE("bvh: CPU and OpenCL BVH renders are bit-identical", T, float
   // Meshes with shared edges too: both backends walk the same tree in the same order,
   // so even ties resolve alike.
   auto ps = packed<T>(400, 400, 23u);
-  using vec3 = glm::vec<3, T>;
   twinray::Scene<T> grid = bvh_test::random_scene<T>(0, 0, 24u);
-  twinray::Mesh<T> mesh;
-  const int k = 12;
-  for (int j = 0; j <= k; ++j)
-    for (int i = 0; i <= k; ++i)
-      mesh.vertices.push_back(
-          vec3(T(-3 + 6.0 * i / k), T(0.5 * ((i + j) % 3) - 0.5), T(-4 + 4.0 * j / k)));
-  for (int j = 0; j < k; ++j)
-    for (int i = 0; i < k; ++i) {
-      int a = j * (k + 1) + i;
-      mesh.triangles.push_back({a, a + 1, a + k + 1});
-      mesh.triangles.push_back({a + 1, a + k + 2, a + k + 1});
-    }
-  mesh.material = 1;
-  grid.add(mesh);
+  grid.add(bvh_test::folded_grid<T>(12, 1));
   auto mesh_ps = packed(grid);
   for (const auto* p : {&ps, &mesh_ps}) {
     auto cpu = render(*p, twinray::Backend::Cpu);

@@ -1,5 +1,6 @@
-// Random test scenes for the BVH tests: spheres and disjoint triangles (no shared
-// edges, so no two primitives tie on t), a floor plane, one light, some glazed.
+// Scenes for the BVH tests: random spheres and disjoint triangles (no shared edges, so
+// no two primitives tie on t), a floor plane, lights, some glazed; and a folded grid
+// whose shared edges do tie.
 #pragma once
 
 #include <cstdint>
@@ -37,6 +38,26 @@ twinray::Scene<T> random_scene(int n_spheres, int n_triangles, uint32_t seed, bo
   scene.add_light(twinray::PointLight<T>{vec3(3, -3, 0), T(10), vec3(1, 0.8, 0.6)});
   scene.background = vec3(T(0.1), T(0.1), T(0.2));
   return scene;
+}
+
+// A folded grid of 2 k^2 triangles sharing edges: rays through a shared edge hit both
+// neighbours at the same t (ties).
+template <class T>
+twinray::Mesh<T> folded_grid(int k, int material) {
+  using vec3 = glm::vec<3, T>;
+  twinray::Mesh<T> mesh;
+  for (int j = 0; j <= k; ++j)
+    for (int i = 0; i <= k; ++i)
+      mesh.vertices.push_back(
+          vec3(T(-3 + 6.0 * i / k), T(0.5 * ((i + j) % 3) - 0.5), T(-4 + 4.0 * j / k)));
+  for (int j = 0; j < k; ++j)
+    for (int i = 0; i < k; ++i) {
+      int a = j * (k + 1) + i;
+      mesh.triangles.push_back({a, a + 1, a + k + 1});
+      mesh.triangles.push_back({a + 1, a + k + 2, a + k + 1});
+    }
+  mesh.material = material;
+  return mesh;
 }
 
 template <class T>

@@ -20,7 +20,6 @@ namespace {
 
 template <class T>
 twinray::Scene<T> scene_with_ties(uint32_t seed) {
-  using vec3 = glm::vec<3, T>;
   twinray::Scene<T> base = bvh_test::random_scene<T>(120, 120, seed);
   twinray::Scene<T> scene = base;
   // A second copy of every object in another material: every hit on them is a tie.
@@ -35,21 +34,7 @@ twinray::Scene<T> scene_with_ties(uint32_t seed) {
       scene.add(copy);
     }
   }
-  // A folded grid: rays through its shared edges tie between neighbours.
-  twinray::Mesh<T> mesh;
-  const int k = 10;
-  for (int j = 0; j <= k; ++j)
-    for (int i = 0; i <= k; ++i)
-      mesh.vertices.push_back(
-          vec3(T(-3 + 6.0 * i / k), T(0.5 * ((i + j) % 3) - 0.5), T(-4 + 4.0 * j / k)));
-  for (int j = 0; j < k; ++j)
-    for (int i = 0; i < k; ++i) {
-      int a = j * (k + 1) + i;
-      mesh.triangles.push_back({a, a + 1, a + k + 1});
-      mesh.triangles.push_back({a + 1, a + k + 2, a + k + 1});
-    }
-  mesh.material = 3;
-  scene.add(mesh);
+  scene.add(bvh_test::folded_grid<T>(10, 3));  // shared edges: ties between neighbours
   return scene;
 }
 

@@ -124,17 +124,17 @@ void obj_number(std::string_view token, const std::string& name, long long line,
   const char* last = first + token.size();
   if (first != last && *first == '+') ++first;  // from_chars takes no '+'
   auto result = std::from_chars(first, last, value);
-  std::string written(token);
+  // The token is copied into a message only when one is thrown: this runs for every
+  // coordinate of the file.
+  auto refuse = [&](const std::string& before, const std::string& after) {
+    throw invalid_input(obj_where(name, line) + what + " " + before + std::string(token) + after);
+  };
   if (result.ptr != last || result.ec == std::errc::invalid_argument)
-    throw invalid_input(obj_where(name, line) + what + " '" + written + "' is not a number");
-  if (result.ec == std::errc::result_out_of_range)
-    throw invalid_input(obj_where(name, line) + what + " " + written +
-                        " is outside the range of double");
-  if (!std::isfinite(value))
-    throw invalid_input(obj_where(name, line) + what + " " + written + " is not a finite number");
+    refuse("'", "' is not a number");
+  if (result.ec == std::errc::result_out_of_range) refuse("", " is outside the range of double");
+  if (!std::isfinite(value)) refuse("", " is not a finite number");
   if (!std::isfinite(static_cast<T>(value)))
-    throw invalid_input(obj_where(name, line) + what + " " + written + " overflows " +
-                        (sizeof(T) == sizeof(float) ? "float" : "double"));
+    refuse("", std::string(" overflows ") + (sizeof(T) == sizeof(float) ? "float" : "double"));
 }
 
 // One index of a face corner, as written: nonzero, and in range (positive: 1 to the

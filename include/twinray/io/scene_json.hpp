@@ -370,60 +370,58 @@ class SceneReader : public JsonReader<T> {
       return glm::dvec3(number(v[0], index_path(p, 0)), number(v[1], index_path(p, 1)),
                         number(v[2], index_path(p, 2)));
     };
-    {
-      if (const Json* m = optional(t, "matrix")) {
-        std::string mpath = key_path(path, "matrix");
-        for (const char* key : {"translate", "rotate", "scale"})
-          if (optional(t, key))
-            fail(key_path(path, key),
-                 "a transform takes either \"matrix\" or \"translate\", "
-                 "\"rotate\" and \"scale\", not both");
-        if (!m->is_array() || m->size() != 4)
-          fail(mpath, "must be 4 rows of 4 numbers (row-major), got " + kind_of(*m));
-        double rows[4][4];
-        for (size_t r = 0; r < 4; ++r) {
-          std::string rpath = index_path(mpath, r);
-          const Json& row = (*m)[r];
-          if (!row.is_array() || row.size() != 4)
-            fail(rpath, "must be a row of 4 numbers, got " + kind_of(row));
-          for (size_t c = 0; c < 4; ++c) rows[r][c] = number(row[c], index_path(rpath, c));
-        }
-        try {
-          return Transform::from_rows(rows);
-        } catch (const Error& e) {
-          fail(mpath, e.what());
-        }
+    if (const Json* m = optional(t, "matrix")) {
+      std::string mpath = key_path(path, "matrix");
+      for (const char* key : {"translate", "rotate", "scale"})
+        if (optional(t, key))
+          fail(key_path(path, key),
+               "a transform takes either \"matrix\" or \"translate\", "
+               "\"rotate\" and \"scale\", not both");
+      if (!m->is_array() || m->size() != 4)
+        fail(mpath, "must be 4 rows of 4 numbers (row-major), got " + kind_of(*m));
+      double rows[4][4];
+      for (size_t r = 0; r < 4; ++r) {
+        std::string rpath = index_path(mpath, r);
+        const Json& row = (*m)[r];
+        if (!row.is_array() || row.size() != 4)
+          fail(rpath, "must be a row of 4 numbers, got " + kind_of(row));
+        for (size_t c = 0; c < 4; ++c) rows[r][c] = number(row[c], index_path(rpath, c));
       }
-      glm::dvec3 scale(1.0), axis(0.0, 1.0, 0.0), translate(0.0);
-      double degrees = 0.0;
-      if (const Json* sc = optional(t, "scale")) {
-        std::string spath = key_path(path, "scale");
-        if (sc->is_number()) {
-          double k = number(*sc, spath);
-          scale = glm::dvec3(k);
-        } else {
-          scale = dvector(*sc, spath);
-        }
-        for (int k = 0; k < 3; ++k)
-          if (scale[k] == 0.0)
-            fail(spath, "must not be 0: a zero scale flattens the object (a singular transform)");
-      }
-      if (const Json* r = optional(t, "rotate")) {
-        std::string rpath = key_path(path, "rotate");
-        require_object(*r, rpath);
-        check_keys(*r, rpath, {"axis", "degrees"});
-        axis = dvector(require(*r, rpath, "axis"), key_path(rpath, "axis"));
-        if (!(glm::length(axis) > 0.0))
-          fail(key_path(rpath, "axis"), "must be a non-zero vector, got " + show((*r)["axis"]));
-        degrees = number(require(*r, rpath, "degrees"), key_path(rpath, "degrees"));
-      }
-      if (const Json* tr = optional(t, "translate"))
-        translate = dvector(*tr, key_path(path, "translate"));
       try {
-        return Transform::scale_rotate_translate(scale, axis, degrees, translate);
+        return Transform::from_rows(rows);
       } catch (const Error& e) {
-        fail(path, e.what());
+        fail(mpath, e.what());
       }
+    }
+    glm::dvec3 scale(1.0), axis(0.0, 1.0, 0.0), translate(0.0);
+    double degrees = 0.0;
+    if (const Json* sc = optional(t, "scale")) {
+      std::string spath = key_path(path, "scale");
+      if (sc->is_number()) {
+        double k = number(*sc, spath);
+        scale = glm::dvec3(k);
+      } else {
+        scale = dvector(*sc, spath);
+      }
+      for (int k = 0; k < 3; ++k)
+        if (scale[k] == 0.0)
+          fail(spath, "must not be 0: a zero scale flattens the object (a singular transform)");
+    }
+    if (const Json* r = optional(t, "rotate")) {
+      std::string rpath = key_path(path, "rotate");
+      require_object(*r, rpath);
+      check_keys(*r, rpath, {"axis", "degrees"});
+      axis = dvector(require(*r, rpath, "axis"), key_path(rpath, "axis"));
+      if (!(glm::length(axis) > 0.0))
+        fail(key_path(rpath, "axis"), "must be a non-zero vector, got " + show((*r)["axis"]));
+      degrees = number(require(*r, rpath, "degrees"), key_path(rpath, "degrees"));
+    }
+    if (const Json* tr = optional(t, "translate"))
+      translate = dvector(*tr, key_path(path, "translate"));
+    try {
+      return Transform::scale_rotate_translate(scale, axis, degrees, translate);
+    } catch (const Error& e) {
+      fail(path, e.what());
     }
   }
 
