@@ -1,4 +1,5 @@
-// Material<T>: Blinn-Phong coefficients and glaze (mirror) reflectivity.
+// Material<T>: Blinn-Phong coefficients, glaze (mirror) reflectivity and an optional
+// diffuse texture.
 #pragma once
 
 #include <glm/vec3.hpp>
@@ -13,6 +14,9 @@ struct Material {
   T ks = T(0.5);                                 // specular coefficient, >= 0
   T shininess = T(65);                           // Blinn-Phong exponent, any real >= 0
   T glaze = T(0);                                // mirror reflectivity in [0, 1]; 0 = not glazed
+  // Index into Scene::textures, or -1. With a texture the albedo is color x the texture's
+  // value at the hit's uv (device/texture.h); only mesh triangles with uvs have one.
+  int texture = -1;
 };
 
 }  // namespace twinray

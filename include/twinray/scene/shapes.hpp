@@ -1,10 +1,12 @@
 // The primitives: Sphere<T>, Triangle<T>, Plane<T> (infinite) and Mesh<T> (indexed
-// triangles). Each refers to a material by its index in Scene<T>::materials. Positions
-// and lengths are in world units; every coordinate must be finite (validate() checks).
+// triangles, with optional vertex normals, texture coordinates and per-triangle materials). Each
+// refers to a material by its index in Scene<T>::materials. Positions and lengths are in world
+// units; every coordinate must be finite (validate() checks).
 #pragma once
 
 #include <array>
 #include <vector>
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
 namespace twinray {
@@ -31,12 +33,35 @@ struct Plane {
   int material = 0;
 };
 
-// Indexed triangle mesh; every triangle gets the mesh's material and object index.
+// Indexed triangle mesh; every triangle gets the mesh's object index. Normals and
+// texture coordinates are indexed on their own, as OBJ files index them: triangle f's
+// corner k has position vertices[triangles[f][k]], normal normals[normal_triangles[f][k]]
+// and uv uvs[uv_triangles[f][k]].
 template <class T>
 struct Mesh {
   std::vector<glm::vec<3, T>> vertices;
   std::vector<std::array<int, 3>> triangles;  // indices into vertices
   int material = 0;
+
+  // Shading normals (unit length), interpolated across each triangle; the geometric
+  // normal still decides intersections and ray offsets. normal_triangles is empty (the
+  // mesh is flat) or has one entry per triangle; an entry of {-1, -1, -1} leaves that
+  // triangle flat.
+  std::vector<glm::vec<3, T>> normals;
+  std::vector<std::array<int, 3>> normal_triangles;
+
+  // Texture coordinates (u right, v up, repeating outside [0, 1]); uv_triangles as
+  // normal_triangles. A triangle without them reads the texture at (0, 0).
+  std::vector<glm::vec<2, T>> uvs;
+  std::vector<std::array<int, 3>> uv_triangles;
+
+  // Empty (every triangle takes `material`) or one material index per triangle (an
+  // OBJ file's `usemtl` groups).
+  std::vector<int> triangle_materials;
+
+  int material_of(size_t triangle) const {
+    return triangle_materials.empty() ? material : triangle_materials[triangle];
+  }
 };
 
 }  // namespace twinray
