@@ -11,7 +11,12 @@
   __global const TrParams *params, __global const TrSphere *spheres,        \
       __global const TrTriangle *triangles, __global const TrPlane *planes, \
       __global const TrMaterial *materials, __global const TrLight *lights, \
-      __global const TrBvhNode *bvh_nodes, __global const int *bvh_prims
+      __global const TrBvhNode *bvh_nodes, __global const int *bvh_prims,   \
+      __global const TrTriangleAttr *triangle_attrs,                        \
+      __global const TrTexture *textures, __global const real *texels
+#define TR_SCENE_ARG_NAMES                                                      \
+  params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims, \
+      triangle_attrs, textures, texels
 
 static inline TrSceneRef tr_scene_ref(TR_SCENE_ARGS) {
   TrSceneRef s;
@@ -23,6 +28,9 @@ static inline TrSceneRef tr_scene_ref(TR_SCENE_ARGS) {
   s.lights = lights;
   s.bvh_nodes = bvh_nodes;
   s.bvh_prims = bvh_prims;
+  s.triangle_attrs = triangle_attrs;
+  s.textures = textures;
+  s.texels = texels;
   return s;
 }
 
@@ -31,8 +39,7 @@ static inline TrSceneRef tr_scene_ref(TR_SCENE_ARGS) {
 __kernel void tr_kernel_render(TR_SCENE_ARGS, __global real* out) {
   int i = (int)get_global_id(0), j = (int)get_global_id(1);
   if (i >= params->rect_w || j >= params->rect_h) return;
-  TrSceneRef s =
-      tr_scene_ref(params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims);
+  TrSceneRef s = tr_scene_ref(TR_SCENE_ARG_NAMES);
   tr_store_rgb(out, params->rect_w, i, j,
                tr_render_pixel(&s, params->rect_x + i, params->rect_y + j));
 }
@@ -40,8 +47,7 @@ __kernel void tr_kernel_render(TR_SCENE_ARGS, __global real* out) {
 __kernel void tr_kernel_aov(TR_SCENE_ARGS, __global real* out, int aov) {
   int i = (int)get_global_id(0), j = (int)get_global_id(1);
   if (i >= params->rect_w || j >= params->rect_h) return;
-  TrSceneRef s =
-      tr_scene_ref(params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims);
+  TrSceneRef s = tr_scene_ref(TR_SCENE_ARG_NAMES);
   tr_store_rgb(out, params->rect_w, i, j,
                tr_render_aov(&s, params->rect_x + i, params->rect_y + j, aov));
 }
@@ -53,8 +59,7 @@ __kernel void tr_kernel_adaptive_first(TR_SCENE_ARGS, __global real* out, __glob
   int i = (int)get_global_id(0), j = (int)get_global_id(1);
   if (i >= params->stats_w || j >= params->stats_h) return;
   int x = params->stats_x + i, y = params->stats_y + j;
-  TrSceneRef s =
-      tr_scene_ref(params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims);
+  TrSceneRef s = tr_scene_ref(TR_SCENE_ARG_NAMES);
   vec3 range;
   vec3 sum = tr_adaptive_first(&s, x, y, &range);
   tr_adaptive_store_stats(params, stats, x, y, sum, range);
@@ -80,8 +85,7 @@ __kernel void tr_kernel_adaptive_refine(TR_SCENE_ARGS, __global real* out,
   int k = (int)get_global_id(0);
   if (k >= count) return;
   int i = pixels[k] % params->rect_w, j = pixels[k] / params->rect_w;
-  TrSceneRef s =
-      tr_scene_ref(params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims);
+  TrSceneRef s = tr_scene_ref(TR_SCENE_ARG_NAMES);
   tr_store_rgb(out, params->rect_w, i, j,
                tr_adaptive_refine(&s, stats, params->rect_x + i, params->rect_y + j));
 }
@@ -111,4 +115,6 @@ __kernel void tr_kernel_layout_sizes(__global int* out) {
   out[4] = (int)sizeof(TrLight);
   out[5] = (int)sizeof(TrBvhNode);
   out[6] = (int)sizeof(TrParams);
+  out[7] = (int)sizeof(TrTriangleAttr);
+  out[8] = (int)sizeof(TrTexture);
 }

@@ -16,7 +16,8 @@ namespace {
 template <class T>
 struct ShadeFixture {
   typename Code<T>::Params params{};
-  typename Code<T>::Material material{T(0.5), T(0.25), T(1), T(0.1), T(0.5), T(0.25), T(10), T(0)};
+  typename Code<T>::Material material{T(0.5),  T(0.25), T(1), T(0.1), T(0.5),
+                                      T(0.25), T(10),   T(0), -1,     0};
   typename Code<T>::Light light{};
   typename Code<T>::Sphere blocker{};
   typename Code<T>::SceneRef ref{};
@@ -40,6 +41,9 @@ struct ShadeFixture {
     hit.p = vec3<T>(0, 0, 0);
     hit.n = vec3<T>(0, 0, 1);
     hit.perr = vec3<T>(0, 0, 0);
+    hit.ns = hit.n;
+    hit.shadow_p = hit.p;
+    hit.shadow_perr = hit.perr;
     hit.material = 0;
     return K<T>::tr_shade(&ref, &hit, vec3<T>(0, 0, -1));
   }

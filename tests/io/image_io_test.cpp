@@ -10,18 +10,13 @@
 #include <twinray/io/pfm.hpp>
 #include <twinray/io/png.hpp>
 
+#include "support/refusal.hpp"
+
 using namespace twinray;
+using test_support::TempDir;
 namespace fs = std::filesystem;
 
 namespace {
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    path = fs::temp_directory_path() / ("twinray-io-test-" + std::to_string(::getpid()));
-    fs::create_directories(path);
-  }
-  ~TempDir() { fs::remove_all(path); }
-};
 
 std::string slurp(const fs::path& p) {
   std::ifstream f(p, std::ios::binary);
@@ -55,7 +50,7 @@ TEST_CASE("PNG is a valid RGB file of the image's size") {
 }
 
 TEST_CASE_TEMPLATE("PFM round trip keeps every float bit, rows bottom to top", T, float, double) {
-  TempDir dir;
+  TempDir dir("twinray-io-test");
   Image<T> img(4, 3);
   for (size_t i = 0; i < img.rgb.size(); ++i) img.rgb[i] = static_cast<T>(0.1 * i - 0.3);
   img.pixel(2, 1)[1] = static_cast<T>(1e30);  // HDR values are kept, not clamped
@@ -74,7 +69,7 @@ TEST_CASE_TEMPLATE("PFM round trip keeps every float bit, rows bottom to top", T
 }
 
 TEST_CASE("a failed write leaves no partial file and keeps the earlier one") {
-  TempDir dir;
+  TempDir dir("twinray-io-test");
   fs::path file = dir.path / "out.png";
   Image<float> good(2, 2);
   io::write_png(file.string(), good);

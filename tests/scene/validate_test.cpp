@@ -7,20 +7,12 @@
 
 #include <twinray/scene/validate.hpp>
 
+#include "support/refusal.hpp"
+
 using namespace twinray;
+using test_support::refusal;
 
 namespace {
-template <class F>
-std::string refusal(F&& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    CHECK(e.kind() == ErrorKind::InvalidInput);
-    return e.what();
-  }
-  FAIL("expected a refusal");
-  return "";
-}
 
 Scene<float> one_sphere() {
   Scene<float> s;
@@ -103,4 +95,46 @@ TEST_CASE("option refusals") {
   o.max_depth = 0;
   CHECK(refusal([&] { validate(o); }) == "render.max_depth: must be in [1, 1024], got 0");
   CHECK_NOTHROW(validate(RenderOptions()));
+}
+
+TEST_CASE("mesh attribute and texture refusals name the entry") {
+  Scene<float> s;
+  s.add_material({});
+  Mesh<float> m;
+  m.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  m.triangles = {{0, 1, 2}};
+  m.normals = {{0, 0, 1}};
+  m.normal_triangles = {{0, 0, 1}};
+  s.add(m);
+  CHECK(refusal([&] { validate(s); }) ==
+        "objects[0].normal_triangles[0][2]: normal index 1 out of range (1 defined)");
+  auto& mesh = std::get<Mesh<float>>(s.objects[0]);
+  mesh.normal_triangles = {{-1, -1, -1}};  // a flat triangle
+  validate(s);
+  mesh.normals = {{0, 0, 2}};
+  CHECK(refusal([&] { validate(s); }) ==
+        "objects[0].normals[0]: must have unit length, got [0, 0, 2]");
+  mesh.normals = {{0, 0, 1}};
+  mesh.uvs = {{0, NAN}};
+  CHECK(refusal([&] { validate(s); }).find("objects[0].uvs[0]: must be finite") == 0);
+  mesh.uvs.clear();
+  mesh.triangle_materials = {1};
+  CHECK(refusal([&] { validate(s); }) ==
+        "objects[0].triangle_materials[0]: no material with index 1 (1 defined)");
+  mesh.triangle_materials = {0};
+  validate(s);
+
+  s.materials[0].texture = 0;
+  CHECK(refusal([&] { validate(s); }) ==
+        "materials[0].texture: no texture with index 0 (0 defined)");
+  Texture<float> t;
+  t.width = 1;
+  t.height = 1;
+  t.texels = {0.5f, 1.5f, 0};
+  s.add_texture(t);
+  CHECK(refusal([&] { validate(s); }) == "textures[0].texels[1]: must be in [0, 1], got 1.5");
+  s.textures[0].texels = {0.5f, 1};
+  CHECK(refusal([&] { validate(s); }) == "textures[0].texels: has 2 values, 1 x 1 texels need 3");
+  s.textures[0].texels = {0.5f, 1, 0};
+  validate(s);
 }

@@ -87,6 +87,22 @@ inline double ms_since(std::chrono::steady_clock::time_point t) {
 }  // namespace sample_plan
 
 // Throws InvalidInput when a backend is asked to render before it has a scene.
+// The device code's number for an AOV (TR_AOV_*, device/trace.h).
+inline int device_aov(Output output) {
+  switch (output) {
+    case Output::Depth:
+      return TR_AOV_DEPTH;
+    case Output::Normal:
+      return TR_AOV_NORMAL;
+    case Output::ShadingNormal:
+      return TR_AOV_SHADING_NORMAL;
+    case Output::Uv:
+      return TR_AOV_UV;
+    default:
+      return TR_AOV_OBJECT;
+  }
+}
+
 inline void require_scene(bool has_scene) {
   if (!has_scene)
     throw invalid_input("render: no scene; call set_scene() with a packed scene first");

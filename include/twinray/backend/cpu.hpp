@@ -120,9 +120,7 @@ class CpuBackend final : public RenderBackend<T> {
   void render_uniform(const PackedFrame<T>& frame, Output output, Image<T>& image) const {
     const auto scene = frame.ref(*scene_);
     const auto& p = frame.params;
-    const int aov = output == Output::Depth    ? TR_AOV_DEPTH
-                    : output == Output::Normal ? TR_AOV_NORMAL
-                                               : TR_AOV_OBJECT;
+    const int aov = device_aov(output);
     for_each_pixel(p.rect_x, p.rect_y, p.rect_w, p.rect_h, [&](int x, int y) {
       auto c = output == Output::Shaded ? K::tr_render_pixel(&scene, x, y)
                                         : K::tr_render_aov(&scene, x, y, aov);

@@ -41,7 +41,7 @@ inline bool parse_sampler(const std::string& name, Sampler* out) {
 
 // What the framebuffer holds: the shaded image, or an arbitrary output variable of
 // the primary ray through each pixel center (device/trace.h tr_render_aov).
-enum class Output { Shaded, Depth, Normal, ObjectIndex };
+enum class Output { Shaded, Depth, Normal, ObjectIndex, ShadingNormal, Uv };
 
 struct RenderOptions {
   Backend backend = Backend::Auto;

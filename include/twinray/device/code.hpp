@@ -47,7 +47,10 @@ struct Kernel {
 static_assert(sizeof(f32::TrSphere) == 32 && sizeof(f64::TrSphere) == 48, "TrSphere layout");
 static_assert(sizeof(f32::TrTriangle) == 44 && sizeof(f64::TrTriangle) == 80, "TrTriangle layout");
 static_assert(sizeof(f32::TrPlane) == 32 && sizeof(f64::TrPlane) == 56, "TrPlane layout");
-static_assert(sizeof(f32::TrMaterial) == 32 && sizeof(f64::TrMaterial) == 64, "TrMaterial layout");
+static_assert(sizeof(f32::TrMaterial) == 40 && sizeof(f64::TrMaterial) == 72, "TrMaterial layout");
+static_assert(sizeof(f32::TrTriangleAttr) == 68 && sizeof(f64::TrTriangleAttr) == 128,
+              "TrTriangleAttr layout");
+static_assert(sizeof(f32::TrTexture) == 16 && sizeof(f64::TrTexture) == 16, "TrTexture layout");
 static_assert(sizeof(f32::TrLight) == 24 && sizeof(f64::TrLight) == 48, "TrLight layout");
 static_assert(sizeof(f32::TrBvhNode) == 32 && sizeof(f64::TrBvhNode) == 56, "TrBvhNode layout");
 static_assert(sizeof(f32::TrParams) == 76 + 88 && sizeof(f64::TrParams) == 152 + 88,
@@ -63,6 +66,8 @@ struct Code<float> {
   using Triangle = f32::TrTriangle;
   using Plane = f32::TrPlane;
   using Material = f32::TrMaterial;
+  using TriangleAttr = f32::TrTriangleAttr;
+  using Texture = f32::TrTexture;
   using Light = f32::TrLight;
   using BvhNode = f32::TrBvhNode;
   using Params = f32::TrParams;
@@ -81,6 +86,8 @@ struct Code<double> {
   using Triangle = f64::TrTriangle;
   using Plane = f64::TrPlane;
   using Material = f64::TrMaterial;
+  using TriangleAttr = f64::TrTriangleAttr;
+  using Texture = f64::TrTexture;
   using Light = f64::TrLight;
   using BvhNode = f64::TrBvhNode;
   using Params = f64::TrParams;

@@ -7,16 +7,18 @@
 #ifndef TWINRAY_DEVICE_FEATURES_H
 #define TWINRAY_DEVICE_FEATURES_H
 
-#define TR_F_SPHERES 0x001u   /* scene has spheres */
-#define TR_F_TRIANGLES 0x002u /* scene has triangles (single or from meshes) */
-#define TR_F_PLANES 0x004u    /* scene has infinite planes */
-#define TR_F_BVH 0x008u       /* spheres and triangles are walked through a BVH */
-#define TR_F_SHADOWS 0x010u   /* shadow rays are traced */
-#define TR_F_GLAZE 0x020u     /* reflected rays are traced (something glazed, depth > 1) */
-#define TR_F_AMBIENT 0x040u   /* ambient term on */
-#define TR_F_DIFFUSE 0x080u   /* diffuse term on */
-#define TR_F_SPECULAR 0x100u  /* specular term on */
-#define TR_F_ALL 0x1ffu       /* the generic program: every feature compiled in */
+#define TR_F_SPHERES 0x001u    /* scene has spheres */
+#define TR_F_TRIANGLES 0x002u  /* scene has triangles (single or from meshes) */
+#define TR_F_PLANES 0x004u     /* scene has infinite planes */
+#define TR_F_BVH 0x008u        /* spheres and triangles are walked through a BVH */
+#define TR_F_SHADOWS 0x010u    /* shadow rays are traced */
+#define TR_F_GLAZE 0x020u      /* reflected rays are traced (something glazed, depth > 1) */
+#define TR_F_AMBIENT 0x040u    /* ambient term on */
+#define TR_F_DIFFUSE 0x080u    /* diffuse term on */
+#define TR_F_SPECULAR 0x100u   /* specular term on */
+#define TR_F_ATTRIBUTES 0x200u /* some triangles carry vertex normals or uvs (TrTriangleAttr) */
+#define TR_F_TEXTURES 0x400u   /* some material has a texture */
+#define TR_F_ALL 0x7ffu        /* the generic program: every feature compiled in */
 /* Host-only: benchmarks instantiate the CPU code with this bit to count every ray
  * query (TR_COUNT_RAY in prelude.h). Never set by a render, never on the device. */
 #define TR_F_COUNT_RAYS 0x80000000u

@@ -12,6 +12,7 @@
 #include "ray_offset.h"
 #include "bvh_traverse.h"
 #include "scene_hit.h"
+#include "texture.h"
 #include "shading.h"
 #include "trace.h"
 #include "adaptive.h"

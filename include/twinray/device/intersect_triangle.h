@@ -112,23 +112,73 @@ TR_FN_INLINE real tr_triangle_t(TR_GLOBAL const TrTriangle* tri, TrRay ray,
   return tr_triangle_t_bary(tri, ray, tr, &bary);
 }
 
-/* The hit record of a ray that reaches the triangle at t (from tr_triangle_t). The
- * hit point comes from the barycentrics: its error lies along the surface, not off it
- * (Waechter and Binder, Ray Tracing Gems ch. 6); bound gamma(7) sum |b_i p_i|. */
+/* The hit record of a ray that reaches the triangle at t (from tr_triangle_t), and the
+ * hit's barycentric coordinates in *bary (for tr_triangle_attributes). The hit point
+ * comes from the barycentrics: its error lies along the surface, not off it (Waechter
+ * and Binder, Ray Tracing Gems ch. 6); bound gamma(7) sum |b_i p_i|. */
 TR_FN void tr_triangle_record(TR_GLOBAL const TrTriangle* tri, TrRay ray, const TrTriangleRay* tr,
-                              real t, TrHit* hit) {
-  vec3 bary = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0)); /* set on a hit only */
-  tr_triangle_t_bary(tri, ray, tr, &bary);
+                              real t, TrHit* hit, vec3* bary) {
+  *bary = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0)); /* set on a hit only */
+  tr_triangle_t_bary(tri, ray, tr, bary);
+  vec3 b = *bary;
   vec3 p0 = TR_VEC3(tri->p0x, tri->p0y, tri->p0z);
   vec3 p1 = TR_VEC3(tri->p1x, tri->p1y, tri->p1z);
   vec3 p2 = TR_VEC3(tri->p2x, tri->p2y, tri->p2z);
   vec3 normal = tr_cross(p1 - p0, p2 - p0);
   hit->t = t;
-  hit->p = p0 * bary.x + p1 * bary.y + p2 * bary.z;
-  hit->perr = (tr_abs3(p0 * bary.x) + tr_abs3(p1 * bary.y) + tr_abs3(p2 * bary.z)) * tr_gamma(7);
+  hit->p = p0 * b.x + p1 * b.y + p2 * b.z;
+  hit->perr = (tr_abs3(p0 * b.x) + tr_abs3(p1 * b.y) + tr_abs3(p2 * b.z)) * tr_gamma(7);
   hit->n = normal * (TR_R(1.0) / sqrt(tr_dot(normal, normal)));
   hit->material = tri->material;
   hit->object = tri->object;
+}
+
+/* Vertex normals and texture coordinates, interpolated at the hit (barycentrics b).
+ *
+ * Shading normal: sum b_i n_i, normalized; the geometric normal where that sum is 0.
+ *
+ * Shadow terminator: a smooth normal lights the faces of a coarse mesh past the line
+ * where the flat facets turn from the light, and shadow rays from the flat surface are
+ * blocked there by the neighbouring facets (hard, faceted shadow edges). Hanika,
+ * "Hacking the Shadow Terminator" (Ray Tracing Gems II, ch. 4, 2021): start shadow rays
+ * from the point on the smooth surface the vertex normals describe. For each vertex i,
+ * project p onto the tangent plane of n_i where p lies below it; the shadow origin is
+ * p + sum_i b_i max(0, -(p - p_i).n_i) n_i, with each n_i turned to the side the ray
+ * came from. Written as a lift added to p, so a flat neighbourhood (no vertex plane
+ * above p) leaves p unchanged to the bit; the addition's rounding widens the error
+ * bound by gamma(2) |origin|. */
+TR_FN void tr_triangle_attributes(TR_GLOBAL const TrTriangleAttr* a,
+                                  TR_GLOBAL const TrTriangle* tri, vec3 b, vec3 ray_dir,
+                                  TrHit* hit) {
+  if ((a->flags & TR_ATTR_UV) != 0) {
+    hit->u = a->u0 * b.x + a->u1 * b.y + a->u2 * b.z;
+    hit->v = a->v0 * b.x + a->v1 * b.y + a->v2 * b.z;
+  }
+  if ((a->flags & TR_ATTR_NORMALS) == 0) return;
+  vec3 n0 = TR_VEC3(a->n0x, a->n0y, a->n0z);
+  vec3 n1 = TR_VEC3(a->n1x, a->n1y, a->n1z);
+  vec3 n2 = TR_VEC3(a->n2x, a->n2y, a->n2z);
+  vec3 ns = n0 * b.x + n1 * b.y + n2 * b.z;
+  real len2 = tr_dot(ns, ns);
+  if (!(len2 > TR_R(0.0))) return; /* opposite normals cancel: keep the geometric one */
+  hit->ns = ns * (TR_R(1.0) / sqrt(len2));
+
+  /* Turn the vertex normals to the side the ray came from. */
+  vec3 facing = tr_dot(hit->n, ray_dir) > TR_R(0.0) ? -hit->n : hit->n;
+  if (tr_dot(ns, facing) < TR_R(0.0)) {
+    n0 = -n0;
+    n1 = -n1;
+    n2 = -n2;
+  }
+  vec3 p0 = TR_VEC3(tri->p0x, tri->p0y, tri->p0z);
+  vec3 p1 = TR_VEC3(tri->p1x, tri->p1y, tri->p1z);
+  vec3 p2 = TR_VEC3(tri->p2x, tri->p2y, tri->p2z);
+  real d0 = tr_dot(hit->p - p0, n0), d1 = tr_dot(hit->p - p1, n1), d2 = tr_dot(hit->p - p2, n2);
+  if (!(d0 < TR_R(0.0) || d1 < TR_R(0.0) || d2 < TR_R(0.0))) return;
+  vec3 lift = n0 * (-tr_min(d0, TR_R(0.0)) * b.x) + n1 * (-tr_min(d1, TR_R(0.0)) * b.y) +
+              n2 * (-tr_min(d2, TR_R(0.0)) * b.z);
+  hit->shadow_p = hit->p + lift;
+  hit->shadow_perr = hit->perr + tr_abs3(hit->shadow_p) * tr_gamma(2);
 }
 
 /* The whole test for one ray and one triangle, hits in (0, tmax) (tests, one-off queries). */
@@ -136,6 +186,7 @@ TR_FN int tr_intersect_triangle(TR_GLOBAL const TrTriangle* tri, TrRay ray, real
   TrTriangleRay tr = tr_triangle_ray(ray);
   real t = tr_triangle_t(tri, ray, &tr);
   if (!(t > TR_R(0.0)) || !(t < tmax)) return 0;
-  tr_triangle_record(tri, ray, &tr, t, hit);
+  vec3 bary;
+  tr_triangle_record(tri, ray, &tr, t, hit, &bary);
   return 1;
 }

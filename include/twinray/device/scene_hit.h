@@ -7,19 +7,31 @@
  * two functions below, so that is where benchmarks count them (TR_COUNT_RAY, prelude.h;
  * nothing in a render or on the device). */
 
-/* The hit record of the nearest hit, made once per ray from its (t, primitive). */
+/* The hit record of the nearest hit, made once per ray from its (t, primitive). The
+ * shading normal, shadow origin and uv are the geometric ones unless a triangle's
+ * attributes say otherwise. */
 TR_FN void tr_record_hit(const TrSceneRef* s, TrRay ray, TrNearest nearest, TrHit* hit) {
   int n_spheres = s->params->n_spheres;
   int n_bounded = n_spheres + s->params->n_triangles;
   int prim = nearest.prim;
+  int triangle = -1;
+  vec3 bary = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
   if (TR_HAS(TR_F_SPHERES) && prim < n_spheres) {
     tr_sphere_record(&s->spheres[prim], ray, nearest.t, hit);
   } else if (TR_HAS(TR_F_TRIANGLES) && prim < n_bounded) {
     TrTriangleRay tri_ray = tr_triangle_ray(ray);
-    tr_triangle_record(&s->triangles[prim - n_spheres], ray, &tri_ray, nearest.t, hit);
+    triangle = prim - n_spheres;
+    tr_triangle_record(&s->triangles[triangle], ray, &tri_ray, nearest.t, hit, &bary);
   } else if (TR_HAS(TR_F_PLANES)) {
     tr_plane_record(&s->planes[prim - n_bounded], ray, nearest.t, hit);
   }
+  hit->ns = hit->n;
+  hit->shadow_p = hit->p;
+  hit->shadow_perr = hit->perr;
+  hit->u = TR_R(0.0);
+  hit->v = TR_R(0.0);
+  if (tr_use(s, TR_F_ATTRIBUTES) && triangle >= 0)
+    tr_triangle_attributes(&s->triangle_attrs[triangle], &s->triangles[triangle], bary, ray.d, hit);
 }
 
 /* The nearest hit in (0, tmax): the smallest (t, primitive id), see tr_offer_hit. */

@@ -20,7 +20,7 @@ TR_FN vec3 tr_trace(const TrSceneRef* s, TrRay ray) {
     if (!TR_HAS(TR_F_GLAZE)) break;
     real glaze = s->materials[hit.material].glaze;
     if (!(glaze > TR_R(0.0))) break;
-    vec3 n = hit.n;
+    vec3 n = hit.ns; /* the shading normal mirrors; the geometric one offsets */
     vec3 mirrored = tr_normalize(ray.d - n * (TR_R(2.0) * tr_dot(ray.d, n)));
     ray.o = tr_offset_ray_origin(hit.p, hit.perr, hit.n, mirrored);
     ray.d = mirrored;
@@ -41,9 +41,11 @@ TR_FN vec3 tr_render_pixel(const TrSceneRef* s, int px, int py) {
 }
 
 /* Arbitrary output variables of the primary ray through the pixel center. */
-#define TR_AOV_DEPTH 0  /* hit distance t; +inf where nothing is hit */
-#define TR_AOV_NORMAL 1 /* unit geometric normal as stored (not turned); 0 where no hit */
-#define TR_AOV_OBJECT 2 /* object index in the scene; -1 where no hit */
+#define TR_AOV_DEPTH 0          /* hit distance t; +inf where nothing is hit */
+#define TR_AOV_NORMAL 1         /* unit geometric normal as stored (not turned); 0 where no hit */
+#define TR_AOV_OBJECT 2         /* object index in the scene; -1 where no hit */
+#define TR_AOV_SHADING_NORMAL 3 /* unit shading normal, not turned; 0 where no hit */
+#define TR_AOV_UV 4             /* texture coordinates (u, v, 0); 0 where none */
 
 TR_FN vec3 tr_render_aov(const TrSceneRef* s, int px, int py, int aov) {
   TrSample2 center;
@@ -51,7 +53,10 @@ TR_FN vec3 tr_render_aov(const TrSceneRef* s, int px, int py, int aov) {
   center.y = TR_R(0.5);
   TrHit hit = tr_no_hit();
   int found = tr_closest_hit(s, tr_camera_ray(s->params, px, py, center), TR_R(INFINITY), &hit);
-  if (aov == TR_AOV_NORMAL) return found ? hit.n : TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
+  vec3 zero = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
+  if (aov == TR_AOV_NORMAL) return found ? hit.n : zero;
+  if (aov == TR_AOV_SHADING_NORMAL) return found ? hit.ns : zero;
+  if (aov == TR_AOV_UV) return found ? TR_VEC3(hit.u, hit.v, TR_R(0.0)) : zero;
   real v = aov == TR_AOV_DEPTH ? (found ? hit.t : TR_R(INFINITY))
                                : (found ? (real)hit.object : TR_R(-1.0));
   return TR_VEC3(v, v, v);

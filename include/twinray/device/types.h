@@ -29,9 +29,29 @@ typedef struct TrPlane {
   int material, object;
 } TrPlane;
 
+/* Shading attributes of one triangle, in the triangles' packed order (present only when
+ * some mesh has normals or uvs, TR_F_ATTRIBUTES): unit vertex normals and texture
+ * coordinates of its three corners, each used where its flag bit is set. Kept apart
+ * from TrTriangle so that traversal, which reads only positions, stays as lean. */
+#define TR_ATTR_NORMALS 1
+#define TR_ATTR_UV 2
+typedef struct TrTriangleAttr {
+  real n0x, n0y, n0z, n1x, n1y, n1z, n2x, n2y, n2z;
+  real u0, v0, u1, v1, u2, v2;
+  int flags, pad0;
+} TrTriangleAttr;
+
+/* texture: index into the texture array, or -1 (device/texture.h). */
 typedef struct TrMaterial {
   real r, g, b, ka, kd, ks, shininess, glaze;
+  int texture, pad0;
 } TrMaterial;
+
+/* An RGB texture: width x height texels of 3 linear reals from texels[first], row 0
+ * at the top (v = 1). */
+typedef struct TrTexture {
+  int width, height, first, pad0;
+} TrTexture;
 
 /* Radiant intensity per channel: color x intensity, premultiplied by the host. */
 typedef struct TrLight {
@@ -93,6 +113,9 @@ typedef struct TrSceneRef {
   TR_GLOBAL const TrLight* lights;
   TR_GLOBAL const TrBvhNode* bvh_nodes;
   TR_GLOBAL const int* bvh_prims;
+  TR_GLOBAL const TrTriangleAttr* triangle_attrs;
+  TR_GLOBAL const TrTexture* textures;
+  TR_GLOBAL const real* texels;
 } TrSceneRef;
 
 typedef struct TrRay {
@@ -111,6 +134,11 @@ typedef struct TrHit {
   vec3 p;    /* hit point, refined onto the surface */
   vec3 perr; /* per-axis bound on the error of p (pbrt-v4's pError) */
   vec3 n;    /* unit geometric normal, not yet turned toward the ray */
+  vec3 ns;   /* unit shading normal (interpolated vertex normal, else n), not turned */
+  /* Where shadow rays start, and the bound on its error: p, except on a triangle with
+   * vertex normals (the shadow terminator, intersect_triangle.h). */
+  vec3 shadow_p, shadow_perr;
+  real u, v; /* texture coordinates; 0 where the primitive has none */
   int material, object;
 } TrHit;
 

@@ -36,7 +36,7 @@ template <class T>
 struct SceneSummary {
   int n_spheres = 0, n_triangles = 0, n_planes = 0, n_bvh_nodes = 0;
   glm::vec<3, T> background{T(0), T(0), T(0)};
-  unsigned features = 0;  // TR_F_SPHERES, TR_F_TRIANGLES, TR_F_PLANES, TR_F_BVH
+  unsigned features = 0;  // the geometry bits of PackedScene::features
   bool any_glazed = false;
 };
 
@@ -50,8 +50,13 @@ struct PackedScene {
   std::vector<typename Code::Material> materials;
   std::vector<typename Code::BvhNode> bvh_nodes;
   std::vector<int> bvh_prims;
+  // One per triangle, in the same order, when some mesh has normals or uvs; else empty.
+  std::vector<typename Code::TriangleAttr> triangle_attrs;
+  std::vector<typename Code::Texture> textures;
+  std::vector<T> texels;  // every texture's linear RGB, one after the other
   glm::vec<3, T> background{T(0), T(0), T(0)};
-  // Bits of the geometry: TR_F_SPHERES, TR_F_TRIANGLES, TR_F_PLANES, TR_F_BVH.
+  // Bits of the geometry: TR_F_SPHERES, TR_F_TRIANGLES, TR_F_PLANES, TR_F_BVH,
+  // TR_F_ATTRIBUTES, TR_F_TEXTURES.
   unsigned features = 0;
   bool any_glazed = false;  // some material has glaze > 0
 
@@ -71,7 +76,9 @@ struct PackedScene {
   size_t bytes() const {
     return spheres.size() * sizeof(spheres[0]) + triangles.size() * sizeof(triangles[0]) +
            planes.size() * sizeof(planes[0]) + materials.size() * sizeof(materials[0]) +
-           bvh_nodes.size() * sizeof(bvh_nodes[0]) + bvh_prims.size() * sizeof(int);
+           bvh_nodes.size() * sizeof(bvh_nodes[0]) + bvh_prims.size() * sizeof(int) +
+           triangle_attrs.size() * sizeof(typename Code::TriangleAttr) +
+           textures.size() * sizeof(typename Code::Texture) + texels.size() * sizeof(T);
   }
 };
 
@@ -119,9 +126,44 @@ struct PackedFrame {
     s.lights = lights.data();
     s.bvh_nodes = scene.bvh_nodes.data();
     s.bvh_prims = scene.bvh_prims.data();
+    s.triangle_attrs = scene.triangle_attrs.data();
+    s.textures = scene.textures.data();
+    s.texels = scene.texels.data();
     return s;
   }
 };
+
+namespace detail {
+
+template <class T>
+bool any_mesh_attributes(const Scene<T>& scene) {
+  for (const Object<T>& o : scene.objects)
+    if (auto* m = std::get_if<Mesh<T>>(&o))
+      if (!m->normal_triangles.empty() || !m->uv_triangles.empty()) return true;
+  return false;
+}
+
+// Triangle f's vertex normals and uvs, where the mesh gives them.
+template <class T, class Attr>
+void pack_attributes(const Mesh<T>& m, size_t f, Attr& a) {
+  if (!m.normal_triangles.empty() && m.normal_triangles[f][0] >= 0) {
+    const auto& k = m.normal_triangles[f];
+    const glm::vec<3, T>&n0 = m.normals[k[0]], &n1 = m.normals[k[1]], &n2 = m.normals[k[2]];
+    a.n0x = n0.x, a.n0y = n0.y, a.n0z = n0.z;
+    a.n1x = n1.x, a.n1y = n1.y, a.n1z = n1.z;
+    a.n2x = n2.x, a.n2y = n2.y, a.n2z = n2.z;
+    a.flags |= TR_ATTR_NORMALS;
+  }
+  if (!m.uv_triangles.empty() && m.uv_triangles[f][0] >= 0) {
+    const auto& k = m.uv_triangles[f];
+    a.u0 = m.uvs[k[0]].x, a.v0 = m.uvs[k[0]].y;
+    a.u1 = m.uvs[k[1]].x, a.v1 = m.uvs[k[1]].y;
+    a.u2 = m.uvs[k[2]].x, a.v2 = m.uvs[k[2]].y;
+    a.flags |= TR_ATTR_UV;
+  }
+}
+
+}  // namespace detail
 
 // Packs the geometry and materials of `scene` (checked first: validate(scene)), with a
 // BVH over its spheres and triangles as `bvh` says. Lights are per frame (pack_frame).
@@ -132,15 +174,21 @@ PackedScene<T> pack_scene(const Scene<T>& scene, BvhPolicy bvh = BvhPolicy::Auto
   ps.background = scene.background;
   for (const Material<T>& m : scene.materials) {
     ps.materials.push_back(
-        {m.color.x, m.color.y, m.color.z, m.ka, m.kd, m.ks, m.shininess, m.glaze});
+        {m.color.x, m.color.y, m.color.z, m.ka, m.kd, m.ks, m.shininess, m.glaze, m.texture, 0});
     if (m.glaze > T(0)) ps.any_glazed = true;
   }
+  for (const Texture<T>& t : scene.textures) {
+    ps.textures.push_back({t.width, t.height, static_cast<int>(ps.texels.size()), 0});
+    ps.texels.insert(ps.texels.end(), t.texels.begin(), t.texels.end());
+  }
+  const bool with_attrs = detail::any_mesh_attributes(scene);
   for (size_t i = 0; i < scene.objects.size(); ++i) {
     int object = static_cast<int>(i);
     const Object<T>& o = scene.objects[i];
     auto add_triangle = [&](const glm::vec<3, T>& a, const glm::vec<3, T>& b,
                             const glm::vec<3, T>& c, int material) {
       ps.triangles.push_back({a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z, material, object});
+      if (with_attrs) ps.triangle_attrs.push_back({});  // flags 0: flat, no uv
     };
     if (auto* s = std::get_if<Sphere<T>>(&o)) {
       ps.spheres.push_back(
@@ -151,8 +199,11 @@ PackedScene<T> pack_scene(const Scene<T>& scene, BvhPolicy bvh = BvhPolicy::Auto
       glm::vec<3, T> n = glm::normalize(p->normal);
       ps.planes.push_back({p->point.x, p->point.y, p->point.z, n.x, n.y, n.z, p->material, object});
     } else if (auto* m = std::get_if<Mesh<T>>(&o)) {
-      for (const auto& f : m->triangles)
-        add_triangle(m->vertices[f[0]], m->vertices[f[1]], m->vertices[f[2]], m->material);
+      for (size_t f = 0; f < m->triangles.size(); ++f) {
+        const auto& v = m->triangles[f];
+        add_triangle(m->vertices[v[0]], m->vertices[v[1]], m->vertices[v[2]], m->material_of(f));
+        if (with_attrs) detail::pack_attributes(*m, f, ps.triangle_attrs.back());
+      }
     }
   }
 
@@ -169,8 +220,10 @@ PackedScene<T> pack_scene(const Scene<T>& scene, BvhPolicy bvh = BvhPolicy::Auto
     const int n_spheres = static_cast<int>(ps.spheres.size());
     std::vector<typename device::Code<T>::Sphere> spheres;
     std::vector<typename device::Code<T>::Triangle> triangles;
+    std::vector<typename device::Code<T>::TriangleAttr> attrs;
     spheres.reserve(ps.spheres.size());
     triangles.reserve(ps.triangles.size());
+    attrs.reserve(ps.triangle_attrs.size());
     ps.bvh_prims.resize(tree.order.size());
     for (size_t i = 0; i < tree.order.size(); ++i) {
       int id = tree.order[i];
@@ -180,16 +233,21 @@ PackedScene<T> pack_scene(const Scene<T>& scene, BvhPolicy bvh = BvhPolicy::Auto
       } else {
         ps.bvh_prims[i] = n_spheres + static_cast<int>(triangles.size());
         triangles.push_back(ps.triangles[static_cast<size_t>(id - n_spheres)]);
+        if (with_attrs) attrs.push_back(ps.triangle_attrs[static_cast<size_t>(id - n_spheres)]);
       }
     }
     ps.spheres.swap(spheres);
     ps.triangles.swap(triangles);
+    ps.triangle_attrs.swap(attrs);
     ps.bvh_nodes = std::move(tree.nodes);
   }
   if (!ps.spheres.empty()) ps.features |= TR_F_SPHERES;
   if (!ps.triangles.empty()) ps.features |= TR_F_TRIANGLES;
   if (!ps.planes.empty()) ps.features |= TR_F_PLANES;
   if (!ps.bvh_nodes.empty()) ps.features |= TR_F_BVH;
+  if (!ps.triangle_attrs.empty()) ps.features |= TR_F_ATTRIBUTES;
+  for (const Material<T>& m : scene.materials)
+    if (m.texture >= 0) ps.features |= TR_F_TEXTURES;
   return ps;
 }
 

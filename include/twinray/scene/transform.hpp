@@ -150,9 +150,13 @@ void place(Triangle<T>& tri, const Transform& t) {
   for (auto& v : tri.vertices) v = detail::placed_point(t, v, "a vertex");
 }
 
+// Vertex normals map by the inverse transpose, as plane normals do.
 template <class T>
 void place(Mesh<T>& mesh, const Transform& t) {
   for (auto& v : mesh.vertices) v = detail::placed_point(t, v, "a vertex");
+  if (mesh.normals.empty()) return;
+  glm::dmat3 normal_map = glm::transpose(glm::inverse(t.linear()));
+  for (auto& n : mesh.normals) n = glm::vec<3, T>(glm::normalize(normal_map * glm::dvec3(n)));
 }
 
 // Normals map by the inverse transpose, so they stay perpendicular to the plane.

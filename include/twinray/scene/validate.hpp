@@ -3,7 +3,9 @@
 // scene file would use (`objects[3].radius: must be > 0, got -1`).
 #pragma once
 
+#include <array>
 #include <cmath>
+#include <vector>
 #include <sstream>
 #include <string>
 #include <type_traits>
@@ -64,6 +66,73 @@ inline std::string at(const std::string& base, size_t i) {
   return base + "[" + std::to_string(i) + "]";
 }
 
+// Index triples into an array of `count`: none, or one per triangle; each all valid
+// or, where `may_be_absent`, all -1.
+inline void validate_corner_indices(const std::string& path,
+                                    const std::vector<std::array<int, 3>>& triples,
+                                    size_t triangles, size_t count, const char* what) {
+  if (triples.empty()) return;
+  if (triples.size() != triangles)
+    refuse(path, "has " + std::to_string(triples.size()) + " entries for " +
+                     std::to_string(triangles) + " triangles");
+  for (size_t f = 0; f < triples.size(); ++f) {
+    const auto& k = triples[f];
+    if (k[0] == -1 && k[1] == -1 && k[2] == -1) continue;
+    for (int c = 0; c < 3; ++c)
+      if (k[c] < 0 || static_cast<size_t>(k[c]) >= count)
+        refuse(at(path, f) + "[" + std::to_string(c) + "]",
+               std::string(what) + " index " + std::to_string(k[c]) + " out of range (" +
+                   std::to_string(count) + " defined)");
+  }
+}
+
+// Vertex normals of unit length (to 1e-3: they were normalized in double and rounded),
+// finite uvs, per-triangle materials in range.
+template <class T>
+void validate_mesh_attributes(const std::string& base, const Mesh<T>& m, size_t materials) {
+  for (size_t i = 0; i < m.normals.size(); ++i) {
+    require_finite(at(base + ".normals", i), m.normals[i]);
+    double len = glm::length(glm::dvec3(m.normals[i]));
+    if (!(std::fabs(len - 1.0) <= 1e-3))
+      refuse(at(base + ".normals", i), "must have unit length, got " + format_vec(m.normals[i]));
+  }
+  for (size_t i = 0; i < m.uvs.size(); ++i)
+    if (!std::isfinite(m.uvs[i].x) || !std::isfinite(m.uvs[i].y))
+      refuse(at(base + ".uvs", i), "must be finite, got [" + format_number(m.uvs[i].x) + ", " +
+                                       format_number(m.uvs[i].y) + "]");
+  validate_corner_indices(base + ".normal_triangles", m.normal_triangles, m.triangles.size(),
+                          m.normals.size(), "normal");
+  validate_corner_indices(base + ".uv_triangles", m.uv_triangles, m.triangles.size(), m.uvs.size(),
+                          "uv");
+  if (!m.triangle_materials.empty() && m.triangle_materials.size() != m.triangles.size())
+    refuse(base + ".triangle_materials", "has " + std::to_string(m.triangle_materials.size()) +
+                                             " entries for " + std::to_string(m.triangles.size()) +
+                                             " triangles");
+  for (size_t f = 0; f < m.triangle_materials.size(); ++f)
+    if (m.triangle_materials[f] < 0 || static_cast<size_t>(m.triangle_materials[f]) >= materials)
+      refuse(at(base + ".triangle_materials", f),
+             "no material with index " + std::to_string(m.triangle_materials[f]) + " (" +
+                 std::to_string(materials) + " defined)");
+}
+
+// A texture's size and texels: width x height x 3 values, each in [0, 1]. Returns the
+// number of values.
+template <class T>
+long long validate_texture(const std::string& base, const Texture<T>& t) {
+  if (t.width < 1 || t.height < 1)
+    refuse(base, "must be at least 1 x 1 texels, got " + std::to_string(t.width) + " x " +
+                     std::to_string(t.height));
+  long long values = 3ll * t.width * t.height;
+  if (static_cast<long long>(t.texels.size()) != values)
+    refuse(base + ".texels", "has " + std::to_string(t.texels.size()) + " values, " +
+                                 std::to_string(t.width) + " x " + std::to_string(t.height) +
+                                 " texels need " + std::to_string(values));
+  for (size_t i = 0; i < t.texels.size(); ++i)
+    if (!(t.texels[i] >= T(0) && t.texels[i] <= T(1)))
+      refuse(at(base + ".texels", i), "must be in [0, 1], got " + format_number(t.texels[i]));
+  return values;
+}
+
 }  // namespace detail
 
 // Each validate() throws twinray::Error(InvalidInput) naming the first bad value, and
@@ -109,9 +178,9 @@ void validate(const Camera<T>& camera) {
     detail::require_range("camera.focal_length", *camera.focal_length, T(0), T(INFINITY), true);
 }
 
-// Geometry and materials: finite geometry, radii > 0, non-zero plane normals, mesh and
-// material indices in range; material and background colors in [0, 1]; ka, kd, ks and
-// shininess >= 0; glaze in [0, 1].
+// Geometry and materials: finite geometry, radii > 0, non-zero plane normals, mesh,
+// material and texture indices in range, unit vertex normals, finite uvs, texels in [0, 1];
+// material and background colors in [0, 1]; ka, kd, ks and shininess >= 0; glaze in [0, 1].
 template <class T>
 void validate_geometry(const Scene<T>& scene) {
   using detail::at;
@@ -129,7 +198,16 @@ void validate_geometry(const Scene<T>& scene) {
     detail::require_range(base + ".ks", m.ks, T(0), T(INFINITY));
     detail::require_range(base + ".shininess", m.shininess, T(0), T(INFINITY));
     detail::require_range(base + ".glaze", m.glaze, T(0), T(1));
+    if (m.texture < -1 || m.texture >= static_cast<int>(scene.textures.size()))
+      refuse(base + ".texture", "no texture with index " + std::to_string(m.texture) + " (" +
+                                    std::to_string(scene.textures.size()) + " defined)");
   }
+  long long texels = 0;
+  for (size_t i = 0; i < scene.textures.size(); ++i)
+    texels += detail::validate_texture(at("textures", i), scene.textures[i]);
+  // The device code indexes all texels with an int (device/texture.h).
+  if (texels > 0x7fffffffll)
+    refuse("textures", "hold " + std::to_string(texels) + " values in all, more than 2^31 - 1");
   auto check_material = [&](const std::string& base, int material) {
     if (material < 0 || static_cast<size_t>(material) >= scene.materials.size())
       refuse(base + ".material", "no material with index " + std::to_string(material) + " (" +
@@ -165,6 +243,7 @@ void validate_geometry(const Scene<T>& scene) {
                        std::to_string(m->vertices.size()) + " vertices)");
         }
       check_material(base, m->material);
+      detail::validate_mesh_attributes(base, *m, scene.materials.size());
     }
   }
 }

@@ -165,9 +165,7 @@ class OpenCLBackend final : public RenderBackend<T> {
     cl_mem out = output_.mem();
     set_arg(k, kSceneArgs, sizeof(cl_mem), &out);
     if (!shaded) {
-      cl_int aov = output == Output::Depth    ? TR_AOV_DEPTH
-                   : output == Output::Normal ? TR_AOV_NORMAL
-                                              : TR_AOV_OBJECT;
+      cl_int aov = device_aov(output);
       set_arg(k, kSceneArgs + 1, sizeof aov, &aov);
     }
     launch_2d(k, p.rect_w, p.rect_h, "clEnqueueNDRangeKernel");

@@ -53,14 +53,14 @@ class Buffer {
   size_t capacity_ = 0;
 };
 
-// The eight buffers every kernel in kernels/render.cl takes as its first arguments,
-// in this order: params, spheres, triangles, planes, materials, lights, bvh_nodes,
-// bvh_prims.
-constexpr cl_uint kSceneArgs = 8;
+// The buffers every kernel in kernels/render.cl takes as its first arguments, in this
+// order: params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims,
+// triangle_attrs, textures, texels.
+constexpr cl_uint kSceneArgs = 11;
 
 class SceneBuffers {
  public:
-  // The scene's six arrays, sent once per scene.
+  // The scene's arrays, sent once per scene.
   template <class T>
   void upload_scene(const Context& ctx, const PackedScene<T>& ps) {
     auto put = [&](Buffer& b, const auto& v) {
@@ -73,6 +73,9 @@ class SceneBuffers {
     put(materials_, ps.materials);
     put(bvh_nodes_, ps.bvh_nodes);
     put(bvh_prims_, ps.bvh_prims);
+    put(triangle_attrs_, ps.triangle_attrs);
+    put(textures_, ps.textures);
+    put(texels_, ps.texels);
   }
 
   // A render's parameters and lights.
@@ -85,13 +88,15 @@ class SceneBuffers {
   }
 
   std::array<cl_mem, kSceneArgs> args() const {
-    return {params_.mem(),    spheres_.mem(), triangles_.mem(), planes_.mem(),
-            materials_.mem(), lights_.mem(),  bvh_nodes_.mem(), bvh_prims_.mem()};
+    return {params_.mem(),         spheres_.mem(),  triangles_.mem(), planes_.mem(),
+            materials_.mem(),      lights_.mem(),   bvh_nodes_.mem(), bvh_prims_.mem(),
+            triangle_attrs_.mem(), textures_.mem(), texels_.mem()};
   }
   cl_mem params() const { return params_.mem(); }
 
  private:
-  Buffer params_, spheres_, triangles_, planes_, materials_, lights_, bvh_nodes_, bvh_prims_;
+  Buffer params_, spheres_, triangles_, planes_, materials_, lights_, bvh_nodes_, bvh_prims_,
+      triangle_attrs_, textures_, texels_;
 };
 
 }  // namespace opencl
