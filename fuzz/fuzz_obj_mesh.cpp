@@ -1,11 +1,13 @@
 // libFuzzer target: OBJ meshes (io/obj_mesh.hpp). Any input must either load as a mesh
-// whose every index is in range, or be refused with twinray::Error(InvalidInput).
+// whose every index is in range and whose normals and uvs validate() accepts, or be
+// refused with twinray::Error(InvalidInput).
 #include <cstddef>
 #include <cstdint>
 #include <string>
 
 #include <twinray/core/error.hpp>
 #include <twinray/io/obj_mesh.hpp>
+#include <twinray/scene/validate.hpp>
 
 #include "fuzz_limits.hpp"
 
@@ -19,6 +21,11 @@ void load(const std::string& text) {
     for (const auto& tri : mesh.triangles)
       for (int index : tri)
         if (index < 0 || static_cast<size_t>(index) >= mesh.vertices.size()) __builtin_trap();
+    try {
+      twinray::detail::validate_mesh_attributes("fuzz", mesh, 1);
+    } catch (const twinray::Error&) {
+      __builtin_trap();  // the loader made a mesh the renderer would refuse
+    }
   } catch (const twinray::Error& e) {
     if (e.kind() != twinray::ErrorKind::InvalidInput) __builtin_trap();
   }

@@ -94,10 +94,15 @@ void add_shared_options(CLI::App& app, SharedOptions& o, unsigned extras) {
   if (extras & kOptionAov)
     app.add_option("--aov", o.aov,
                    "write, as PFM, instead of the shaded image: depth (primary hit "
-                   "distance, inf for no hit), normal (geometric normal, 0 for no hit) or "
-                   "object (object index, -1 for no hit)")
-        ->check(CLI::IsMember({"depth", "normal", "object"}));
+                   "distance, inf for no hit), normal (geometric normal, 0 for no hit), "
+                   "shading-normal (interpolated vertex normal where a mesh has them, else "
+                   "the geometric one), uv (texture coordinates u, v, 0) or object (object "
+                   "index, -1 for no hit)")
+        ->check(CLI::IsMember({"depth", "normal", "shading-normal", "uv", "object"}));
   app.add_flag("--quiet", o.quiet, "no progress bar");
+  app.add_flag("--strict", o.strict,
+               "a missing or unreadable .mtl or texture file, or an unknown usemtl name, is an "
+               "error (exit status 2) instead of a warning");
   app.add_option("--sampler", o.sampler,
                  "sub-pixel sample positions: grid, stratified (jittered) or r2 "
                  "(low-discrepancy)")
@@ -147,7 +152,8 @@ std::string scene_arg_text(const std::string& scene) {
 }
 
 template <class T>
-twinray::io::SceneFile<T> parse_scene_arg(const std::string& scene, const std::string& text) {
+twinray::io::SceneFile<T> parse_scene_arg(const std::string& scene, const std::string& text,
+                                          bool strict = false) {
   if (scene == "demo") {
     twinray::demo::DemoSetup<T> d = twinray::demo::make_demo_scene<T>();
     twinray::io::SceneFile<T> f;
@@ -157,7 +163,9 @@ twinray::io::SceneFile<T> parse_scene_arg(const std::string& scene, const std::s
     f.path = "demo";
     return f;
   }
-  return twinray::io::parse_scene<T>(text, scene, twinray::io::scene_folder(scene));
+  twinray::io::SceneLimits limits;
+  limits.strict = strict;
+  return twinray::io::parse_scene<T>(text, scene, twinray::io::scene_folder(scene), limits);
 }
 
 template <class T>
@@ -190,9 +198,11 @@ void apply_shared_options(twinray::io::SceneFile<T>& f, const SharedOptions& o) 
   if (o.no_glaze) r.glaze = false;
   if (!o.terms.empty()) r.terms = parse_terms(o.terms);
   if (!o.aov.empty())
-    r.output = o.aov == "depth"    ? twinray::Output::Depth
-               : o.aov == "normal" ? twinray::Output::Normal
-                                   : twinray::Output::ObjectIndex;
+    r.output = o.aov == "depth"            ? twinray::Output::Depth
+               : o.aov == "normal"         ? twinray::Output::Normal
+               : o.aov == "shading-normal" ? twinray::Output::ShadingNormal
+               : o.aov == "uv"             ? twinray::Output::Uv
+                                           : twinray::Output::ObjectIndex;
   if (o.frame >= 0) {
     if (f.animation.is_null())
       usage_error("--frame " + std::to_string(o.frame) + ": " + f.path +
@@ -216,7 +226,9 @@ void apply_shared_options(twinray::io::SceneFile<T>& f, const SharedOptions& o) 
 template <class T>
 twinray::io::SceneFile<T> prepare_scene(const std::string& scene, const std::string& text,
                                         const SharedOptions& o) {
-  twinray::io::SceneFile<T> f = parse_scene_arg<T>(scene, text);
+  twinray::io::SceneFile<T> f = parse_scene_arg<T>(scene, text, o.strict);
+  for (const std::string& warning : f.warnings)
+    std::fprintf(stderr, "twinray: warning: %s\n", warning.c_str());
   apply_shared_options(f, o);
   return f;
 }
@@ -260,7 +272,7 @@ class Hasher {
 template <class T>
 std::string pixels_key(const twinray::io::SceneFile<T>& f, const std::string& precision) {
   Hasher h;
-  h.text("twinray movie frames v1");
+  h.text("twinray movie frames v2");
   h.text(precision);
   const twinray::Camera<T>& c = f.camera;
   h.value(c.projection), h.value(c.position), h.value(c.look_at), h.value(c.up);
@@ -273,7 +285,12 @@ std::string pixels_key(const twinray::io::SceneFile<T>& f, const std::string& pr
   h.value(f.scene.background);
   for (const auto& m : f.scene.materials)
     h.value(m.color), h.value(m.ka), h.value(m.kd), h.value(m.ks), h.value(m.shininess),
-        h.value(m.glaze);
+        h.value(m.glaze), h.value(m.texture);
+  auto array = [&](const auto& v) {
+    h.value(v.size());
+    h.bytes(v.data(), v.size() * sizeof(v[0]));
+  };
+  for (const auto& t : f.scene.textures) h.value(t.width), h.value(t.height), array(t.texels);
   for (const auto& l : f.scene.lights) h.value(l.position), h.value(l.intensity), h.value(l.color);
   for (const auto& object : f.scene.objects) {
     h.value(object.index());
@@ -288,8 +305,8 @@ std::string pixels_key(const twinray::io::SceneFile<T>& f, const std::string& pr
           } else if constexpr (std::is_same<O, twinray::Triangle<T>>::value) {
             h.value(o.vertices);
           } else {
-            h.bytes(o.vertices.data(), o.vertices.size() * sizeof(o.vertices[0]));
-            h.bytes(o.triangles.data(), o.triangles.size() * sizeof(o.triangles[0]));
+            array(o.vertices), array(o.triangles), array(o.normals), array(o.normal_triangles);
+            array(o.uvs), array(o.uv_triangles), array(o.triangle_materials);
           }
         },
         object);

@@ -56,8 +56,9 @@ struct SharedOptions {
   std::string terms;  // "": the scene's; else comma-separated ambient,diffuse,specular
   int frame = -1;     // --frame K; -1: not given
   int threads = 0;    // 0: all cores
-  std::string aov;    // "", depth, normal, object
+  std::string aov;    // "", depth, normal, shading-normal, uv, object
   bool quiet = false;
+  bool strict = false;             // a missing .mtl or texture file is an error, not a warning
   std::string sampler;             // "": the scene's; else grid, stratified, r2
   int seed = -1;                   // -1: the scene's
   int adaptive_spp = 0;            // --adaptive N; 0: the scene's

@@ -3,6 +3,7 @@
 // images: demo.json against examples/demo.cpp, and CPU against OpenCL.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <string>
@@ -488,11 +489,17 @@ TEST_CASE("the seed's comparisons: examples/demo.cpp and the scene files give th
   }
 }
 
-TEST_CASE("AOVs: depth, normal and object index, the same bits on both backends") {
+TEST_CASE(
+    "AOVs: depth, normal, shading normal, uv and object index, the same bits on both "
+    "backends") {
   std::string dir = fresh_folder(kWork, "aov");
   for (const char* precision : {"float", "double"})
-    for (std::string scene : {std::string("demo"), kScenes + "/torus.json"})
-      for (const char* aov : {"depth", "normal", "object"}) {
+    for (std::string scene :
+         {std::string("demo"), kScenes + "/torus.json", kScenes + "/models.json"})
+      for (const char* aov : {"depth", "normal", "object", "shading-normal", "uv"}) {
+        // The mesh attributes' AOVs on the scene that has them.
+        bool attribute_aov = std::string(aov) == "shading-normal" || std::string(aov) == "uv";
+        if (attribute_aov != (scene == kScenes + "/models.json")) continue;
         CAPTURE(std::string(precision));
         CAPTURE(scene);
         CAPTURE(std::string(aov));
@@ -527,6 +534,17 @@ TEST_CASE("AOVs: depth, normal and object index, the same bits on both backends"
           }
           CHECK(bad == 0);
           CHECK(finite > img.rgb.size() / 2);
+        } else if (std::string(aov) == "uv") {
+          // (u, v, 0): the textured torus's coordinates lie in [0, 1]; 0 elsewhere.
+          size_t bad = 0, inside = 0;
+          for (size_t p = 0; p < img.rgb.size(); p += 3) {
+            float u = img.rgb[p], v = img.rgb[p + 1];
+            bad += img.rgb[p + 2] == 0.0f && u >= 0.0f && u <= 1.0f && v >= 0.0f && v <= 1.0f ? 0u
+                                                                                              : 1u;
+            inside += u > 0.0f && v > 0.0f ? 1u : 0u;
+          }
+          CHECK(bad == 0);
+          CHECK(inside > img.rgb.size() / 3 / 20);
         } else {
           size_t bad = 0, unit = 0;
           for (size_t p = 0; p < img.rgb.size(); p += 3) {
@@ -540,6 +558,36 @@ TEST_CASE("AOVs: depth, normal and object index, the same bits on both backends"
           CHECK(unit > img.rgb.size() / 6);
         }
       }
+}
+
+TEST_CASE(
+    "OBJ materials: a missing texture is a warning naming file and line; --strict: status 2") {
+  std::string dir = fresh_folder(kWork, "strict");
+  write_file(dir + "/box.obj",
+             "mtllib box.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n"
+             "usemtl paint\nf 1/1 2/2 3/3\n");
+  write_file(dir + "/box.mtl", "newmtl paint\nKd 1 1 1\nmap_Kd gone.png\n");
+  std::string scene = kGoodScene;
+  scene.replace(scene.find(kInlineMesh), kInlineMesh.size(),
+                R"({ "type": "mesh", "obj": "box.obj" })");
+  write_file(dir + "/scene.json", scene);
+  auto has = [&](const std::string& name) {
+    std::vector<std::string> files = listing(dir);
+    return std::find(files.begin(), files.end(), name) != files.end();
+  };
+  const std::string path = dir + "/scene.json";
+  Result warned = run_twinray({"render", path, "-o", "out.png", "--backend", "cpu"}, dir);
+  REQUIRE_MESSAGE(warned.status == 0, warned.err);
+  CHECK(contains(warned.err, "twinray: warning: " + dir + "/box.mtl:3: map_Kd gone.png: "));
+  CHECK(contains(warned.err, "; material paint is not textured"));
+  CHECK(has("out.png"));
+
+  Result strict =
+      run_twinray({"render", path, "-o", "strict.png", "--backend", "cpu", "--strict"}, dir);
+  CHECK(strict.status == 2);
+  CHECK(contains(strict.err, path + ": objects[3].obj: " + dir + "/box.mtl:3: map_Kd gone.png"));
+  CHECK(contains(strict.err, "(--strict)"));
+  CHECK_FALSE(has("strict.png"));
 }
 
 TEST_CASE("the progress bar: on a terminal only, and not with --quiet") {

@@ -3,13 +3,15 @@
 // defines TWINRAY_WITH_TINYOBJLOADER when it finds it; without it only
 // read_small_file() is here and scene files cannot name .obj meshes.
 //
-// Only geometry is read: vertex positions and faces (tinyobjloader triangulates
-// polygons: a quad along a shortest diagonal, larger ones by ear clipping). Normals, texture
-// coordinates, groups and `mtllib`/`usemtl` are ignored: the mesh takes the material its scene
-// gives it. The file is size-checked before it is read, and the vertex and triangle counts before
-// the mesh is built, so a hostile file cannot exhaust memory. Errors are
-// twinray::Error(InvalidInput) whose message starts with the file name, and the line where there is
-// one: `bunny.obj:12: vertex index 90 is out of range: the file has 34`.
+// Read: vertex positions and faces (tinyobjloader triangulates polygons: a quad along a
+// shortest diagonal, larger ones by ear clipping), vertex normals (`vn`, normalized; a
+// triangle some corner of which has none, or a zero one, is flat) and texture
+// coordinates (`vt`; a triangle some corner of which has none gets none). Materials
+// (`mtllib`, `usemtl`) are io/obj_model.hpp's; groups are ignored. The file is size-checked before
+// it is read, and the vertex and triangle counts before the mesh is built, so a hostile file cannot
+// exhaust memory. Errors are twinray::Error(InvalidInput) whose message starts with the file name,
+// and the line where there is one: `bunny.obj:12: vertex index 90 is out of range: the file has
+// 34`.
 #pragma once
 
 #include <array>
@@ -22,6 +24,8 @@
 #include <sstream>
 #include <string>
 #include <string_view>
+#include <unordered_map>
+#include <vector>
 
 #include <sys/stat.h>
 
@@ -80,8 +84,16 @@ namespace detail {
 // named as `file:line` with the text exactly as the file wrote it. It also counts the
 // records, so the limits hold (and a file with no faces is refused) before
 // tinyobjloader allocates anything.
+// A name an OBJ line gives (`mtllib spot.mtl`, `usemtl spot`), and where.
+struct ObjReference {
+  std::string name;
+  long long line = 0;
+};
+
 struct ObjCounts {
   long long vertices = 0, texcoords = 0, normals = 0, triangles = 0;
+  std::vector<ObjReference> libraries;  // `mtllib` files, in order
+  std::vector<ObjReference> uses;       // `usemtl` lines
 };
 
 inline bool obj_space(char c) {
@@ -242,15 +254,22 @@ ObjCounts scan_obj(const std::string& text, const std::string& name) {
         }
       }
       seen.triangles += t.count - 3;
+    } else if (key == "mtllib") {
+      // One or more file names, split at whitespace as tinyobjloader splits them.
+      for (int k = 1; k < t.count && k < ObjLine::kMax; ++k)
+        seen.libraries.push_back({std::string(t.token[k]), line_number});
+    } else if (key == "usemtl" && t.count > 1) {
+      seen.uses.push_back({std::string(t.token[1]), line_number});
     }
   }
   return seen;
 }
 
-// tinyobjloader's warnings, none thrown away unread: those about materials (twinray
-// does not read `mtllib`/`usemtl`, and passes tinyobjloader no .mtl, so every `usemtl`
-// warns) and unnamed groups are expected; any other one (a dropped face, an index out of
-// range) is a file problem that scan_obj should have named first, and is returned so
+// tinyobjloader's warnings, none thrown away unread: those about materials (a `usemtl`
+// name no library defines, a library it was not given; io/obj_model.hpp finds both
+// itself and names the line), MTL transparency (`d` and `Tr` both given: twinray reads
+// neither) and unnamed groups are expected; any other one (a dropped face, an index out
+// of range) is a file problem that scan_obj should have named first, and is returned so
 // the load refuses the file rather than render a mesh with faces missing.
 inline std::string unexpected_obj_warning(const std::string& warnings) {
   size_t i = 0;
@@ -263,8 +282,9 @@ inline std::string unexpected_obj_warning(const std::string& warnings) {
       line.pop_back();
     while (!line.empty() && (line.front() == ' ' || line.front() == '.')) line.erase(0, 1);
     if (line.empty()) continue;
-    for (const char* expected : {"material [", "Material file [",
-                                 "Looks like empty filename for mtllib", "Empty group name"})
+    for (const char* expected :
+         {"material [", "Material file [", "Looks like empty filename for mtllib",
+          "Empty group name", "Both `d` and `Tr` parameters defined"})
       if (line.rfind(expected, 0) == 0) line.clear();
     if (!line.empty()) return "tinyobjloader: " + line;
   }
@@ -294,33 +314,27 @@ inline std::string without_vertex_weights(const std::string& text) {
 
 }  // namespace detail
 
-// Parses OBJ text; `name` labels errors. Throws twinray::Error(InvalidInput).
-template <class T>
-Mesh<T> parse_obj_mesh(const std::string& text, const std::string& name,
-                       const ObjLimits& limits = {}) {
-  detail::ObjCounts counts = detail::scan_obj<T>(text, name);
-  if (counts.vertices == 0) throw invalid_input(name + ": no vertices (`v x y z` lines)");
-  if (counts.triangles == 0) throw invalid_input(name + ": no faces (`f a b c` lines)");
-  if (counts.vertices > limits.max_vertices)
-    throw invalid_input(name + ": " + std::to_string(counts.vertices) +
-                        " vertices, more than the limit of " + std::to_string(limits.max_vertices));
-  if (counts.triangles > limits.max_triangles)
-    throw invalid_input(name + ": " + std::to_string(counts.triangles) +
-                        " triangles, more than the limit of " +
-                        std::to_string(limits.max_triangles));
+namespace detail {
 
-  tinyobj::ObjReaderConfig config;
-  config.triangulate = true;
-  config.vertex_color = false;
-  tinyobj::ObjReader reader;
-  // ParseFromString ignores `mtllib`: no other file is opened.
-  if (!reader.ParseFromString(detail::without_vertex_weights(text), "", config)) {
-    std::string error = reader.Error();
-    while (!error.empty() && (error.back() == '\n' || error.back() == ' ')) error.pop_back();
-    throw invalid_input(name + ": malformed OBJ: " + (error.empty() ? "parse failed" : error));
+// Unit normals of the file's `vn` records, in double rounded once; a zero normal
+// becomes (0, 0, 0) here and leaves the triangles that use it flat.
+template <class T>
+std::vector<glm::vec<3, T>> obj_unit_normals(const std::vector<tinyobj::real_t>& raw) {
+  std::vector<glm::vec<3, T>> normals(raw.size() / 3);
+  for (size_t i = 0; i < normals.size(); ++i) {
+    glm::dvec3 n(raw[3 * i], raw[3 * i + 1], raw[3 * i + 2]);
+    double len = std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
+    if (len > 0.0 && std::isfinite(len)) normals[i] = glm::vec<3, T>(n / len);
   }
-  if (std::string problem = detail::unexpected_obj_warning(reader.Warning()); !problem.empty())
-    throw invalid_input(name + ": " + problem);
+  return normals;
+}
+
+// The mesh of a parsed file, with its vertex normals and texture coordinates where
+// every corner of a triangle has them, and in triangle_materials tinyobjloader's
+// material id of each triangle (-1: none).
+template <class T>
+Mesh<T> obj_mesh_from(const tinyobj::ObjReader& reader, const std::string& name,
+                      const ObjLimits& limits) {
   const tinyobj::attrib_t& attrib = reader.GetAttrib();
   Mesh<T> mesh;
   size_t n_vertices = attrib.vertices.size() / 3;
@@ -337,6 +351,8 @@ Mesh<T> parse_obj_mesh(const std::string& text, const std::string& name,
     }
     mesh.vertices.push_back(p);
   }
+  std::vector<glm::vec<3, T>> normals = obj_unit_normals<T>(attrib.normals);
+  const size_t n_uvs = attrib.texcoords.size() / 2;
   size_t n_triangles = 0;
   for (const tinyobj::shape_t& shape : reader.GetShapes())
     n_triangles += shape.mesh.num_face_vertices.size();
@@ -345,6 +361,11 @@ Mesh<T> parse_obj_mesh(const std::string& text, const std::string& name,
                         " triangles, more than the limit of " +
                         std::to_string(limits.max_triangles));
   mesh.triangles.reserve(n_triangles);
+  mesh.triangle_materials.reserve(n_triangles);
+  if (!normals.empty()) mesh.normal_triangles.reserve(n_triangles);
+  if (n_uvs > 0) mesh.uv_triangles.reserve(n_triangles);
+  bool any_normals = false, any_uvs = false;
+  const std::array<int, 3> none{-1, -1, -1};
   for (const tinyobj::shape_t& shape : reader.GetShapes()) {
     size_t offset = 0;
     for (size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {
@@ -353,20 +374,100 @@ Mesh<T> parse_obj_mesh(const std::string& text, const std::string& name,
         throw invalid_input(name + ": face " + std::to_string(mesh.triangles.size() + 1) +
                             " in shape '" + shape.name + "' has " + std::to_string(corners) +
                             " corners after triangulation, expected 3");
-      std::array<int, 3> tri{};
+      std::array<int, 3> tri{}, nrm{}, uv{};
+      bool has_normals = !normals.empty(), has_uv = n_uvs > 0;
       for (unsigned k = 0; k < 3; ++k) {
-        int index = shape.mesh.indices[offset + k].vertex_index;
-        if (index < 0 || static_cast<size_t>(index) >= n_vertices)
+        const tinyobj::index_t& index = shape.mesh.indices[offset + k];
+        if (index.vertex_index < 0 || static_cast<size_t>(index.vertex_index) >= n_vertices)
           throw invalid_input(name + ": face " + std::to_string(mesh.triangles.size() + 1) +
-                              " refers to vertex " + std::to_string(index + 1) + ", but only " +
-                              std::to_string(n_vertices) + " are defined");
-        tri[k] = index;
+                              " refers to vertex " + std::to_string(index.vertex_index + 1) +
+                              ", but only " + std::to_string(n_vertices) + " are defined");
+        tri[k] = index.vertex_index;
+        nrm[k] = index.normal_index;
+        uv[k] = index.texcoord_index;
+        has_normals = has_normals && nrm[k] >= 0 && static_cast<size_t>(nrm[k]) < normals.size() &&
+                      normals[nrm[k]] != glm::vec<3, T>(T(0));
+        has_uv = has_uv && uv[k] >= 0 && static_cast<size_t>(uv[k]) < n_uvs;
       }
       mesh.triangles.push_back(tri);
+      int material = f < shape.mesh.material_ids.size() ? shape.mesh.material_ids[f] : -1;
+      mesh.triangle_materials.push_back(material);
+      if (!normals.empty()) mesh.normal_triangles.push_back(has_normals ? nrm : none);
+      if (n_uvs > 0) mesh.uv_triangles.push_back(has_uv ? uv : none);
+      any_normals = any_normals || has_normals;
+      any_uvs = any_uvs || has_uv;
       offset += corners;
     }
   }
   if (mesh.triangles.empty()) throw invalid_input(name + ": no faces (`f a b c` lines)");
+  if (any_normals) {
+    // Zero normals no triangle uses are given a unit placeholder, so all are valid.
+    for (auto& n : normals)
+      if (n == glm::vec<3, T>(T(0))) n = glm::vec<3, T>(T(0), T(0), T(1));
+    mesh.normals = std::move(normals);
+  } else {
+    mesh.normal_triangles.clear();
+  }
+  if (any_uvs) {
+    mesh.uvs.reserve(n_uvs);
+    for (size_t i = 0; i < n_uvs; ++i) {
+      glm::vec<2, T> uv(static_cast<T>(attrib.texcoords[2 * i]),
+                        static_cast<T>(attrib.texcoords[2 * i + 1]));
+      if (!std::isfinite(uv.x) || !std::isfinite(uv.y))
+        throw invalid_input(name + ": texture coordinate " + std::to_string(i + 1) +
+                            " is not a finite number");
+      mesh.uvs.push_back(uv);
+    }
+  } else {
+    mesh.uv_triangles.clear();
+  }
+  return mesh;
+}
+
+// Parses text that scan_obj has checked (`scanned`: its counts) with tinyobjloader,
+// with `mtl_text` as the text of its material libraries; the limits are checked first.
+template <class T>
+Mesh<T> parse_obj(const std::string& text, const ObjCounts& scanned, const std::string& name,
+                  const ObjLimits& limits, const std::string& mtl_text,
+                  std::vector<tinyobj::material_t>* materials) {
+  if (scanned.vertices == 0) throw invalid_input(name + ": no vertices (`v x y z` lines)");
+  if (scanned.triangles == 0) throw invalid_input(name + ": no faces (`f a b c` lines)");
+  if (scanned.vertices > limits.max_vertices)
+    throw invalid_input(name + ": " + std::to_string(scanned.vertices) +
+                        " vertices, more than the limit of " + std::to_string(limits.max_vertices));
+  if (scanned.triangles > limits.max_triangles)
+    throw invalid_input(name + ": " + std::to_string(scanned.triangles) +
+                        " triangles, more than the limit of " +
+                        std::to_string(limits.max_triangles));
+
+  tinyobj::ObjReaderConfig config;
+  config.triangulate = true;
+  config.vertex_color = false;
+  tinyobj::ObjReader reader;
+  // ParseFromString opens no other file: `mtl_text` stands for every `mtllib`.
+  if (!reader.ParseFromString(without_vertex_weights(text), mtl_text, config)) {
+    std::string error = reader.Error();
+    while (!error.empty() && (error.back() == '\n' || error.back() == ' ')) error.pop_back();
+    throw invalid_input(name + ": malformed OBJ: " + (error.empty() ? "parse failed" : error));
+  }
+  if (std::string problem = unexpected_obj_warning(reader.Warning()); !problem.empty())
+    throw invalid_input(name + ": " + problem);
+  Mesh<T> mesh = obj_mesh_from<T>(reader, name, limits);
+  if (materials) *materials = reader.GetMaterials();
+  return mesh;
+}
+
+}  // namespace detail
+
+// Parses OBJ text; `name` labels errors. Throws twinray::Error(InvalidInput). The mesh
+// has the file's vertex normals and texture coordinates; materials are not read
+// (io/obj_model.hpp reads them), so triangle_materials is empty.
+template <class T>
+Mesh<T> parse_obj_mesh(const std::string& text, const std::string& name,
+                       const ObjLimits& limits = {}) {
+  Mesh<T> mesh =
+      detail::parse_obj<T>(text, detail::scan_obj<T>(text, name), name, limits, "", nullptr);
+  mesh.triangle_materials.clear();
   return mesh;
 }
 

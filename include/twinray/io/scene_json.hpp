@@ -38,6 +38,8 @@
 #include <twinray/io/animation_json.hpp>
 #include <twinray/io/json_read.hpp>
 #include <twinray/io/obj_mesh.hpp>
+#include <twinray/io/obj_model.hpp>
+#include <twinray/scene/mesh_normals.hpp>
 
 namespace twinray {
 namespace io {
@@ -55,6 +57,9 @@ struct SceneLimits : JsonLimits {
   long long max_mesh_vertices = 1ll << 24;    // per mesh, inline or OBJ
   long long max_total_triangles = 1ll << 24;  // triangles of all meshes and triangles
   long long max_obj_file_bytes = 256ll << 20;
+  // Not a limit but a policy of the same loads: a missing or unreadable .mtl or
+  // texture file, or an unknown `usemtl` name, is an error instead of a warning.
+  bool strict = false;
 };
 
 // Everything a scene file holds.
@@ -70,6 +75,9 @@ struct SceneFile {
   // loader; parse_animation(file) below turns it into an Animation<T>.
   nlohmann::ordered_json animation;
   std::string path;  // the file as named by the caller
+  // What the load found missing and did without (`spot.obj:2: usemtl red: ...; the
+  // default material is used`); the command prints them. Empty with limits.strict.
+  std::vector<std::string> warnings;
 };
 
 namespace detail {
@@ -426,7 +434,9 @@ class SceneReader : public JsonReader<T> {
   }
 
   Mesh<T> read_mesh(const Json& o, const std::string& path, SceneFile<T>& out) {
-    check_keys(o, path, {"type", "vertices", "triangles", "obj", "material", "transform"});
+    check_keys(o, path,
+               {"type", "vertices", "triangles", "obj", "material", "transform", "normals",
+                "crease_angle"});
     Mesh<T> mesh;
     const Json* obj = optional(o, "obj");
     if (obj) {
@@ -435,65 +445,136 @@ class SceneReader : public JsonReader<T> {
           fail(key_path(path, key),
                "a mesh takes either \"obj\" or \"vertices\" and "
                "\"triangles\", not both");
-      std::string opath = key_path(path, "obj");
-      std::string name = string(*obj, opath);
-      if (name.empty()) fail(opath, "must name an .obj file");
-      std::string file = name[0] == '/' || base_dir_.empty() ? name : base_dir_ + "/" + name;
-#ifdef TWINRAY_WITH_TINYOBJLOADER
-      ObjLimits limits;
-      limits.max_file_bytes = limits_.max_obj_file_bytes;
-      limits.max_vertices = limits_.max_mesh_vertices;
-      limits.max_triangles = limits_.max_total_triangles - total_triangles_;
-      try {
-        mesh = load_obj_mesh<T>(file, limits);
-      } catch (const Error& e) {
-        fail(opath, e.what());
-      }
-#else
-      fail(opath, "cannot read " + file +
-                      ": this build has no OBJ support (link tinyobjloader, Debian "
-                      "libtinyobjloader-dev)");
-#endif
-      count_triangles(static_cast<long long>(mesh.triangles.size()), opath);
+      read_obj_model(o, path, *obj, out, mesh);
     } else {
-      std::string vpath = key_path(path, "vertices"), tpath = key_path(path, "triangles");
-      const Json& v = require(o, path, "vertices");
-      const Json& t = require(o, path, "triangles");
-      require_array(v, vpath);
-      require_array(t, tpath);
-      if (static_cast<long long>(v.size()) > limits_.max_mesh_vertices)
-        fail(vpath, std::to_string(v.size()) + " vertices, more than the limit of " +
-                        std::to_string(limits_.max_mesh_vertices));
-      if (v.empty()) fail(vpath, "must hold at least 3 points, got none");
-      if (t.empty()) fail(tpath, "must hold at least one index triple, got none");
-      count_triangles(static_cast<long long>(t.size()), tpath);
-      mesh.vertices.reserve(v.size());
-      for (size_t k = 0; k < v.size(); ++k)
-        mesh.vertices.push_back(vector3(v[k], index_path(vpath, k)));
-      mesh.triangles.reserve(t.size());
-      long long n = static_cast<long long>(v.size());
-      for (size_t f = 0; f < t.size(); ++f) {
-        std::string fpath = index_path(tpath, f);
-        const Json& tri = t[f];
-        if (!tri.is_array() || tri.size() != 3)
-          fail(fpath, "must be an array of 3 vertex indices, got " + kind_of(tri));
-        std::array<int, 3> indices{};
-        for (size_t k = 0; k < 3; ++k) {
-          std::string ipath = index_path(fpath, k);
-          const Json& index = tri[k];
-          if (index.is_number_integer() &&
-              (index.is_number_unsigned() || index.get<long long>() >= 0) &&
-              index.get<unsigned long long>() >= static_cast<unsigned long long>(n))
-            fail(ipath, "vertex index " + show(index) + " out of range: the mesh has " +
-                            std::to_string(n) + " vertices (indices 0 to " + std::to_string(n - 1) +
-                            ")");
-          indices[k] = static_cast<int>(integer(index, ipath, 0, n - 1));
-        }
-        mesh.triangles.push_back(indices);
-      }
+      read_inline_mesh(o, path, mesh);
+      mesh.material = material_ref(o, path, out);
     }
-    mesh.material = material_ref(o, path, out);
+    read_normals(o, path, mesh);
     return mesh;
+  }
+
+  // `normals`: "file" (the OBJ's vn where given, else flat), "flat" or "smooth" (with
+  // `crease_angle`, degrees, default 60).
+  void read_normals(const Json& o, const std::string& path, Mesh<T>& mesh) {
+    std::string mode = "file";
+    if (const Json* n = optional(o, "normals"))
+      mode = choice(*n, key_path(path, "normals"), {"file", "flat", "smooth"});
+    const Json* crease = optional(o, "crease_angle");
+    if (crease && mode != "smooth")
+      fail(key_path(path, "crease_angle"),
+           "applies to \"normals\": \"smooth\" only (normals are \"" + mode + "\")");
+    if (mode == "flat") flat_normals(mesh);
+    if (mode == "smooth") {
+      double degrees = 60.0;
+      if (crease) {
+        std::string cpath = key_path(path, "crease_angle");
+        degrees = number(*crease, cpath);
+        if (!(degrees >= 0.0 && degrees <= 180.0))
+          fail(cpath, "must be in [0, 180] degrees, got " + show(*crease));
+      }
+      smooth_normals(mesh, degrees);
+    }
+  }
+
+  // A mesh from an OBJ file, with its MTL materials and textures unless `material`
+  // overrides them all. Faces without a usable `usemtl`, and a file without materials,
+  // take the default material (Material<T>{}).
+  void read_obj_model(const Json& o, const std::string& path, const Json& obj, SceneFile<T>& out,
+                      Mesh<T>& mesh) {
+    std::string opath = key_path(path, "obj");
+    std::string name = string(obj, opath);
+    if (name.empty()) fail(opath, "must name an .obj file");
+    std::string file = name[0] == '/' || base_dir_.empty() ? name : base_dir_ + "/" + name;
+#ifdef TWINRAY_WITH_TINYOBJLOADER
+    ObjModelOptions options;
+    options.limits.max_file_bytes = limits_.max_obj_file_bytes;
+    options.limits.max_vertices = limits_.max_mesh_vertices;
+    options.limits.max_triangles = limits_.max_total_triangles - total_triangles_;
+    options.strict = limits_.strict;
+    const bool overridden = optional(o, "material") != nullptr;
+    ObjModel<T> model;
+    try {
+      model = load_obj_model<T>(file, options);
+    } catch (const Error& e) {
+      fail(opath, e.what());
+    }
+    mesh = std::move(model.mesh);
+    count_triangles(static_cast<long long>(mesh.triangles.size()), opath);
+    if (overridden) {
+      mesh.triangle_materials.clear();
+      mesh.material = material_ref(o, path, out);
+      return;
+    }
+    for (const std::string& w : model.warnings) out.warnings.push_back(w);
+    if (static_cast<long long>(out.scene.materials.size() + model.materials.size()) + 1 >
+        limits_.max_materials)
+      fail(opath, "more than " + std::to_string(limits_.max_materials) + " materials");
+    const int texture_base = static_cast<int>(out.scene.textures.size());
+    for (Texture<T>& t : model.textures) out.scene.add_texture(std::move(t));
+    std::vector<int> index(model.materials.size());
+    for (size_t i = 0; i < model.materials.size(); ++i) {
+      Material<T> m = model.materials[i];
+      if (m.texture >= 0) m.texture += texture_base;
+      index[i] = out.scene.add_material(m);
+      out.material_names.push_back(name + ":" + model.material_names[i]);
+    }
+    bool uses_default = model.materials.empty();
+    for (int& m : mesh.triangle_materials) uses_default = uses_default || m < 0;
+    int fallback = -1;
+    if (uses_default) {
+      fallback = out.scene.add_material(Material<T>{});
+      out.material_names.push_back(name + ": default material");
+    }
+    for (int& m : mesh.triangle_materials) m = m < 0 ? fallback : index[static_cast<size_t>(m)];
+    mesh.material = mesh.triangle_materials.empty() ? fallback : mesh.triangle_materials[0];
+    if (model.materials.empty()) mesh.triangle_materials.clear();
+#else
+    (void)o;
+    (void)out;
+    (void)mesh;
+    fail(opath, "cannot read " + file +
+                    ": this build has no OBJ support (link tinyobjloader, Debian "
+                    "libtinyobjloader-dev)");
+#endif
+  }
+
+  void read_inline_mesh(const Json& o, const std::string& path, Mesh<T>& mesh) {
+    std::string vpath = key_path(path, "vertices"), tpath = key_path(path, "triangles");
+    const Json& v = require(o, path, "vertices");
+    const Json& t = require(o, path, "triangles");
+    require_array(v, vpath);
+    require_array(t, tpath);
+    if (static_cast<long long>(v.size()) > limits_.max_mesh_vertices)
+      fail(vpath, std::to_string(v.size()) + " vertices, more than the limit of " +
+                      std::to_string(limits_.max_mesh_vertices));
+    if (v.empty()) fail(vpath, "must hold at least 3 points, got none");
+    if (t.empty()) fail(tpath, "must hold at least one index triple, got none");
+    count_triangles(static_cast<long long>(t.size()), tpath);
+    mesh.vertices.reserve(v.size());
+    for (size_t k = 0; k < v.size(); ++k)
+      mesh.vertices.push_back(vector3(v[k], index_path(vpath, k)));
+    mesh.triangles.reserve(t.size());
+    long long n = static_cast<long long>(v.size());
+    for (size_t f = 0; f < t.size(); ++f) {
+      std::string fpath = index_path(tpath, f);
+      const Json& tri = t[f];
+      if (!tri.is_array() || tri.size() != 3)
+        fail(fpath, "must be an array of 3 vertex indices, got " + kind_of(tri));
+      std::array<int, 3> indices{};
+      for (size_t k = 0; k < 3; ++k) {
+        std::string ipath = index_path(fpath, k);
+        const Json& index = tri[k];
+        if (index.is_number_integer() &&
+            (index.is_number_unsigned() || index.get<long long>() >= 0) &&
+            index.get<unsigned long long>() >= static_cast<unsigned long long>(n))
+          fail(ipath, "vertex index " + show(index) + " out of range: the mesh has " +
+                          std::to_string(n) + " vertices (indices 0 to " + std::to_string(n - 1) +
+                          ")");
+        indices[k] = static_cast<int>(integer(index, ipath, 0, n - 1));
+      }
+      mesh.triangles.push_back(indices);
+    }
   }
 
  private:
