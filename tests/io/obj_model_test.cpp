@@ -2,7 +2,8 @@
 // (io/obj_mesh.hpp, io/obj_model.hpp), and the scene-file keys that use them
 // (`normals`, `crease_angle`, a mesh without `material`): what is read, how MTL maps to
 // twinray's material, and the warnings (or, strict, errors) for missing pieces, each
-// naming file and line. Also the public-domain spot model, when ../shared/models is there.
+// naming file and line. Also the public-domain spot model, from TWINRAY_TEST_MODELS_DIR
+// when that folder holds it.
 #include <doctest/doctest.h>
 
 #include <cstdio>
@@ -219,9 +220,9 @@ TEST_CASE("scene files: OBJ materials, the material override, normals and crease
         }).rfind(path + ": objects[0].obj: " + dir + "/look.mtl:7: map_Kd red.png: ", 0) == 0);
 }
 
-// The public-domain spot model (Keenan Crane, CC0), from ../shared/models when present.
+// The public-domain spot model (Keenan Crane, CC0), when TWINRAY_TEST_MODELS_DIR holds it.
 TEST_CASE("spot: loads with its material, texture and uvs; smooth normals computed") {
-  const std::string dir = TWINRAY_SHARED_MODELS_DIR;
+  const std::string dir = TWINRAY_TEST_MODELS_DIR;
   if (!std::ifstream(dir + "/spot.obj")) {
     MESSAGE("skipped: " << dir << "/spot.obj is not there");
     return;
