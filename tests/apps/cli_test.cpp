@@ -561,7 +561,8 @@ TEST_CASE(
 }
 
 TEST_CASE(
-    "OBJ materials: a missing texture is a warning naming file and line; --strict: status 2") {
+    "OBJ materials: a missing texture is a warning naming file and line, --strict makes it status "
+    "2") {
   std::string dir = fresh_folder(kWork, "strict");
   write_file(dir + "/box.obj",
              "mtllib box.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n"

@@ -108,7 +108,7 @@ TEST_CASE_TEMPLATE("MTL: materials map onto Blinn-Phong, per usemtl group, with 
   CHECK(model.mesh.triangle_materials == std::vector<int>{0, 0, 1, 1});
 }
 
-TEST_CASE("MTL: missing pieces are warnings naming file and line; strict makes them errors") {
+TEST_CASE("MTL: missing pieces are warnings naming file and line, strict makes them errors") {
   TempDir temp("twinray-obj-model-test");
   const std::string dir = temp.str();
   write(dir + "/look.obj", kObj);
@@ -221,7 +221,7 @@ TEST_CASE("scene files: OBJ materials, the material override, normals and crease
 }
 
 // The public-domain spot model (Keenan Crane, CC0), when TWINRAY_TEST_MODELS_DIR holds it.
-TEST_CASE("spot: loads with its material, texture and uvs; smooth normals computed") {
+TEST_CASE("spot: loads with its material, texture and uvs, and smooth normals are computed") {
   const std::string dir = TWINRAY_TEST_MODELS_DIR;
   if (!std::ifstream(dir + "/spot.obj")) {
     MESSAGE("skipped: " << dir << "/spot.obj is not there");
