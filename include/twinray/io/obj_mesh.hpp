@@ -1,7 +1,7 @@
 // load_obj_mesh(): a Wavefront OBJ file as a Mesh<T>, through tinyobjloader (Debian
 // libtinyobjloader-dev). twinray::io links tinyobjloader::tinyobjloader_double and
-// defines TWINRAY_WITH_TINYOBJLOADER when it finds it; without it only
-// read_small_file() is here and scene files cannot name .obj meshes.
+// defines TWINRAY_WITH_TINYOBJLOADER when it finds it; without it this header is
+// empty and scene files cannot name .obj meshes.
 //
 // Read: vertex positions and faces (tinyobjloader triangulates polygons: a quad along a
 // shortest diagonal, larger ones by ear clipping), vertex normals (`vn`, normalized; a
@@ -17,55 +17,23 @@
 #include <array>
 #include <charconv>
 #include <cstdio>
-#include <cerrno>
 #include <cmath>
 #include <cstring>
-#include <fstream>
 #include <sstream>
 #include <string>
 #include <string_view>
-#include <unordered_map>
 #include <vector>
-
-#include <sys/stat.h>
 
 #ifdef TWINRAY_WITH_TINYOBJLOADER
 #include <tiny_obj_loader.h>
 #endif
 
 #include <twinray/core/error.hpp>
+#include <twinray/io/small_file.hpp>
 #include <twinray/scene/shapes.hpp>
 
 namespace twinray {
 namespace io {
-
-namespace detail {
-
-// Reads a whole regular file of at most `max_bytes`; the size is checked first.
-inline std::string read_small_file(const std::string& path, long long max_bytes,
-                                   const std::string& what) {
-  struct stat st {};
-  if (::stat(path.c_str(), &st) != 0) {
-    int e = errno;
-    throw invalid_input(path + ": cannot open " + what + ": " + std::strerror(e));
-  }
-  if (S_ISDIR(st.st_mode)) throw invalid_input(path + ": is a folder, not " + what);
-  if (!S_ISREG(st.st_mode)) throw invalid_input(path + ": is not a regular file");
-  if (st.st_size > max_bytes)
-    throw invalid_input(path + ": " + what + " is " + std::to_string(st.st_size) +
-                        " bytes, more than the limit of " + std::to_string(max_bytes));
-  std::ifstream f(path, std::ios::binary);
-  if (!f) {
-    int e = errno;
-    throw invalid_input(path + ": cannot open " + what + ": " + std::strerror(e));
-  }
-  std::string text(static_cast<size_t>(st.st_size), '\0');
-  if (!text.empty() && !f.read(&text[0], static_cast<std::streamsize>(text.size())))
-    throw invalid_input(path + ": cannot read " + what);
-  return text;
-}
-
-}  // namespace detail
 
 #ifdef TWINRAY_WITH_TINYOBJLOADER
 

@@ -61,9 +61,15 @@ inline std::string resolve_beside(const std::string& base_file, const std::strin
   return !name.empty() && name[0] == '/' ? name : folder_of(base_file) + name;
 }
 
-// Where each material's `map_Kd` is written: material name -> line of its MTL file.
-inline std::map<std::string, long long> map_kd_lines(const std::string& mtl) {
-  std::map<std::string, long long> lines;
+// What the loader needs to know of an MTL file's lines: the materials it defines, and
+// the line of each one's `map_Kd` (for warnings).
+struct MtlLines {
+  std::vector<std::string> defined;              // `newmtl` names, in order
+  std::map<std::string, long long> map_kd_line;  // material name -> its map_Kd line
+};
+
+inline MtlLines scan_mtl(const std::string& mtl) {
+  MtlLines out;
   std::string current;
   long long number = 0;
   for (size_t i = 0, n = mtl.size(); i < n;) {
@@ -72,10 +78,14 @@ inline std::map<std::string, long long> map_kd_lines(const std::string& mtl) {
     ++number;
     ObjLine t = split_obj_line(std::string_view(mtl.data() + i, end - i));
     i = end + 1;
-    if (t.count >= 2 && t.token[0] == "newmtl") current = std::string(t.token[1]);
-    if (t.count >= 2 && t.token[0] == "map_Kd") lines[current] = number;
+    if (t.count < 2) continue;
+    if (t.token[0] == "newmtl") {
+      current = std::string(t.token[1]);
+      out.defined.push_back(current);
+    }
+    if (t.token[0] == "map_Kd") out.map_kd_line[current] = number;
   }
-  return lines;
+  return out;
 }
 
 template <class T>
@@ -119,16 +129,17 @@ ObjModel<T> load_obj_model(const std::string& path, const ObjModelOptions& optio
   detail::ObjCounts refs = detail::scan_obj<T>(text, path);
   std::string mtl_text;
   struct Library {
-    std::string path, text;
+    std::string path;
+    detail::MtlLines lines;
   };
   std::vector<Library> libraries;
   for (const detail::ObjReference& lib : refs.libraries) {
     std::string file = detail::resolve_beside(path, lib.name);
     try {
       std::string t = detail::read_small_file(file, options.limits.max_file_bytes, "an MTL file");
+      libraries.push_back({file, detail::scan_mtl(t)});
       mtl_text += t;
       mtl_text += "\n";
-      libraries.push_back({file, std::move(t)});
     } catch (const Error& e) {
       warn(detail::obj_where(path, lib.line) + "mtllib " + lib.name + ": " + e.what() +
            "; its materials are not used");
@@ -141,15 +152,8 @@ ObjModel<T> load_obj_model(const std::string& path, const ObjModelOptions& optio
   std::map<std::string, std::string> defined_in;  // material name -> library path
   std::map<std::string, long long> texture_line;  // material name -> its map_Kd line
   for (const Library& lib : libraries) {
-    for (const auto& [name, line] : detail::map_kd_lines(lib.text)) texture_line[name] = line;
-    for (size_t i = 0, n = lib.text.size(); i < n;) {
-      size_t end = lib.text.find('\n', i);
-      if (end == std::string::npos) end = n;
-      detail::ObjLine t = detail::split_obj_line(std::string_view(lib.text.data() + i, end - i));
-      if (t.count >= 2 && t.token[0] == "newmtl")
-        defined_in.emplace(std::string(t.token[1]), lib.path);
-      i = end + 1;
-    }
+    for (const std::string& name : lib.lines.defined) defined_in.emplace(name, lib.path);
+    for (const auto& [name, line] : lib.lines.map_kd_line) texture_line[name] = line;
   }
   std::string library_list;
   for (const detail::ObjReference& lib : refs.libraries)

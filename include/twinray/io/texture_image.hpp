@@ -41,7 +41,7 @@
 #include <stb_image.h>
 
 #include <twinray/core/error.hpp>
-#include <twinray/io/obj_mesh.hpp>  // detail::read_small_file
+#include <twinray/io/small_file.hpp>
 #include <twinray/scene/texture.hpp>
 
 namespace twinray {
