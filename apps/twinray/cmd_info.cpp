@@ -42,11 +42,7 @@ int run_info() {
 #else
   std::cout << "  OpenCL backend:  no (built without OpenCL)\n";
 #endif
-#ifdef TWINRAY_WITH_TINYOBJLOADER
-  std::cout << "  OBJ meshes:      yes (tinyobjloader)\n";
-#else
-  std::cout << "  OBJ meshes:      no (built without tinyobjloader)\n";
-#endif
+  std::cout << "  OBJ meshes:      yes (with MTL materials and textures)\n";
   std::cout << "  scene format:    version " << twinray::io::kSceneFormatVersion << "\n";
 
 #ifdef TWINRAY_WITH_OPENCL

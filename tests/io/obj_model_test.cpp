@@ -218,6 +218,11 @@ TEST_CASE("scene files: OBJ materials, the material override, normals and crease
   CHECK(refusal([&] {
           io::load_scene<float>(scene_with(""), strict);
         }).rfind(path + ": objects[0].obj: " + dir + "/look.mtl:7: map_Kd red.png: ", 0) == 0);
+  // With `material`, the file's materials are not read, so what they lack is no warning.
+  io::SceneFile<float> overridden =
+      io::load_scene<float>(scene_with(R"(, "material": "m")"), strict);
+  CHECK(overridden.warnings.empty());
+  CHECK(overridden.scene.textures.empty());
 }
 
 // The public-domain spot model (Keenan Crane, CC0), when TWINRAY_TEST_MODELS_DIR holds it.

@@ -202,8 +202,8 @@ TEST_CASE("OBJ: faces triangulated, relative indices, and clear errors") {
       parse_obj_mesh<double>("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n", "q.obj");
   CHECK(quad.vertices.size() == 4);
   REQUIRE(quad.triangles.size() == 2);
-  // tinyobjloader splits a quad along a shortest diagonal (here both are), larger
-  // polygons as a fan from their first corner.
+  // A quad is split along its shorter diagonal (here both are as short: 1-3); a convex
+  // polygon comes out as a fan from its first corner.
   CHECK(quad.triangles[0] == std::array<int, 3>{0, 1, 3});
   CHECK(quad.triangles[1] == std::array<int, 3>{1, 2, 3});
   twinray::Mesh<double> pentagon = parse_obj_mesh<double>(
@@ -397,17 +397,13 @@ TEST_CASE("transform: animation paths move the placed object") {
   CHECK(v1[3] == glm::dvec3(7, 4, 6));
 }
 
-// tinyobjloader's warnings: the expected ones (materials, unnamed groups) pass, any other
-// one refuses the file.
-TEST_CASE("OBJ: tinyobjloader warnings are read, not dropped") {
-  using twinray::io::detail::unexpected_obj_warning;
-  CHECK(unexpected_obj_warning("") == "");
-  CHECK(unexpected_obj_warning(
-            "material [ 'red' ] not found in .mtl\nEmpty group name. line: 3\n") == "");
-  CHECK(unexpected_obj_warning("material [ 'red' ] not found in .mtl\nDegenerated face found\n.") ==
-        "tinyobjloader: Degenerated face found");
-  // And through the loader: a file whose materials tinyobjloader cannot find still loads.
+// Statements twinray does not read pass: material lines (parse_obj_mesh reads no
+// materials), unnamed groups, smoothing groups, lines and points, skin weights.
+TEST_CASE("OBJ: statements twinray does not read are passed over") {
   auto mesh = twinray::io::parse_obj_mesh<float>(
-      "mtllib x.mtl\nusemtl red\ng\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "m.obj");
+      "mtllib x.mtl\nusemtl red\ng\ns off\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvw 1 2.5e10 1\n"
+      "l 1 2\np 3\nf 1 2 3\n",
+      "m.obj");
   CHECK(mesh.triangles.size() == 1);
+  CHECK(mesh.triangle_materials.empty());
 }

@@ -486,13 +486,14 @@ class SceneReader : public JsonReader<T> {
     std::string name = string(obj, opath);
     if (name.empty()) fail(opath, "must name an .obj file");
     std::string file = name[0] == '/' || base_dir_.empty() ? name : base_dir_ + "/" + name;
-#ifdef TWINRAY_WITH_TINYOBJLOADER
     ObjModelOptions options;
     options.limits.max_file_bytes = limits_.max_obj_file_bytes;
     options.limits.max_vertices = limits_.max_mesh_vertices;
     options.limits.max_triangles = limits_.max_total_triangles - total_triangles_;
     options.strict = limits_.strict;
+    // A `material` key overrides the file's materials: their files are not read.
     const bool overridden = optional(o, "material") != nullptr;
+    options.materials = !overridden;
     ObjModel<T> model;
     try {
       model = load_obj_model<T>(file, options);
@@ -519,8 +520,8 @@ class SceneReader : public JsonReader<T> {
       index[i] = out.scene.add_material(m);
       out.material_names.push_back(name + ":" + model.material_names[i]);
     }
-    bool uses_default = model.materials.empty();
-    for (int& m : mesh.triangle_materials) uses_default = uses_default || m < 0;
+    bool uses_default = mesh.triangle_materials.empty();
+    for (int m : mesh.triangle_materials) uses_default = uses_default || m < 0;
     int fallback = -1;
     if (uses_default) {
       fallback = out.scene.add_material(Material<T>{});
@@ -529,14 +530,6 @@ class SceneReader : public JsonReader<T> {
     for (int& m : mesh.triangle_materials) m = m < 0 ? fallback : index[static_cast<size_t>(m)];
     mesh.material = mesh.triangle_materials.empty() ? fallback : mesh.triangle_materials[0];
     if (model.materials.empty()) mesh.triangle_materials.clear();
-#else
-    (void)o;
-    (void)out;
-    (void)mesh;
-    fail(opath, "cannot read " + file +
-                    ": this build has no OBJ support (link tinyobjloader, Debian "
-                    "libtinyobjloader-dev)");
-#endif
   }
 
   void read_inline_mesh(const Json& o, const std::string& path, Mesh<T>& mesh) {
