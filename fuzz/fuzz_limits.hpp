@@ -23,6 +23,7 @@ inline twinray::io::ObjLimits obj_limits() {
   limits.max_file_bytes = 1 << 20;
   limits.max_vertices = 1 << 14;
   limits.max_triangles = 1 << 14;
+  limits.max_face_corners = 1 << 10;  // ear clipping a huge face is slow, not wrong
   return limits;
 }
 
