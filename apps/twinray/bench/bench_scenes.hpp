@@ -5,7 +5,7 @@
 //                 shrinks as N^(-1/3), so the spheres fill the same share of the volume
 //                 at every N and the image stays alike while N grows
 //   mesh_<N>      a bumpy closed blob of about N triangles over the same floor
-//   obj_<N>       mesh_<N> written to an OBJ file and read back (the loading path)
+//   obj_<N>       mesh_<N> written to an OBJ file and read back by io/obj_mesh.hpp
 // N is written 1e3, 1e5, 1e6 (or plain digits). Every scene has one point light, shadow
 // rays and reflections off the glazed floor (and the glazed quarter of the spheres).
 #pragma once
@@ -19,13 +19,13 @@
 #include <cstdio>
 #include <fstream>
 #include <random>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include <twinray/twinray.hpp>
 
+#include <twinray/io/obj_mesh.hpp>
 #include <twinray/scene/demo_scene.hpp>
 
 namespace twinray_bench {
@@ -161,36 +161,6 @@ void write_obj(const std::string& path, const twinray::Mesh<T>& mesh) {
   if (!f) throw std::runtime_error("cannot write " + path);
 }
 
-// Reads the v and f lines of an OBJ file (faces with more than 3 vertices become fans;
-// "i/j/k" takes the position index; negative indices count from the end).
-template <class T>
-twinray::Mesh<T> read_obj(const std::string& path, int material) {
-  std::ifstream f(path);
-  if (!f) throw std::runtime_error("cannot read " + path);
-  twinray::Mesh<T> mesh;
-  mesh.material = material;
-  std::string line;
-  while (std::getline(f, line)) {
-    if (line.size() < 2) continue;
-    if (line[0] == 'v' && line[1] == ' ') {
-      double x = 0, y = 0, z = 0;
-      std::sscanf(line.c_str() + 2, "%lf %lf %lf", &x, &y, &z);
-      mesh.vertices.push_back(glm::vec<3, T>(T(x), T(y), T(z)));
-    } else if (line[0] == 'f' && line[1] == ' ') {
-      std::istringstream in(line.substr(2));
-      std::vector<int> idx;
-      std::string tok;
-      while (in >> tok) {
-        int i = std::atoi(tok.c_str());
-        idx.push_back(i < 0 ? static_cast<int>(mesh.vertices.size()) + i : i - 1);
-      }
-      for (size_t k = 2; k < idx.size(); ++k)
-        mesh.triangles.push_back({idx[0], idx[k - 1], idx[k]});
-    }
-  }
-  return mesh;
-}
-
 // A scene by name (see the top of this file); throws std::invalid_argument if unknown.
 // obj_* scenes write their OBJ file into obj_dir.
 template <class T>
@@ -217,7 +187,7 @@ BenchScene<T> make_scene(const std::string& name, int width, int height,
     std::string path = obj_dir + "/twinray_bench_blob_" + rest + ".obj";
     write_obj(path, blob_mesh<T>(parse_count(rest), 0));
     auto t0 = std::chrono::steady_clock::now();
-    twinray::Mesh<T> mesh = read_obj<T>(path, 0);
+    twinray::Mesh<T> mesh = twinray::io::load_obj_mesh<T>(path);
     double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     b = blob_scene<T>(mesh);
