@@ -2,8 +2,18 @@
 // line per scene x backend x precision; the machine, OpenCL program builds and notes on stderr. The
 // runner and the built-in scenes are apps/twinray/bench/bench_runner.hpp and
 // bench/bench_scenes.hpp, shared with the bench/twinray_bench.cpp program.
+//
+// With `--against PROGRAM` (bench/embree_bench, or any program that takes its options and
+// prints the same CSV), rounds of both are interleaved scene by scene, and stdout has the
+// ratios instead: per scene the medians over the rounds, and CPU / comparator taken within
+// each round (median, least, largest). `--plot FILE.png` draws the cost per ray against the
+// primitive count of the spheres_<N> and mesh_<N> scenes (gnuplot).
+#include <algorithm>
+#include <cstdio>
 #include <iostream>
+#include <map>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -21,6 +31,9 @@ struct BenchArgs {
   int runs = 5, width = 0, height = 0, spp = 0, threads = 0;
   std::string bvh = "auto";
   std::string obj_dir = ".";
+  std::string against;  // a comparison program: interleaved rounds and ratios
+  int rounds = 3;
+  std::string plot;  // a PNG of the cost per ray against the primitive count
 };
 
 bool is_builtin(const std::string& name) {
@@ -53,6 +66,181 @@ twinray_bench::BenchScene<T> load(const std::string& name, const BenchArgs& a) {
   return b;
 }
 
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+std::string shell_quote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+// One scene through the comparison program: its fastest row.
+twinray_bench::Row run_against(const BenchArgs& a, const std::string& scene) {
+  std::ostringstream cmd;
+  cmd << shell_quote(a.against) << " --scenes " << shell_quote(scene) << " --runs " << a.runs
+      << " --obj-dir " << shell_quote(a.obj_dir);
+  if (a.width > 0) cmd << " --width " << a.width;
+  if (a.height > 0) cmd << " --height " << a.height;
+  if (a.threads > 0) cmd << " --threads " << a.threads;
+  FILE* pipe = ::popen(cmd.str().c_str(), "r");
+  if (!pipe) throw twinray::Error(twinray::ErrorKind::RuntimeFailure, "cannot run " + a.against);
+  std::string out;
+  char buffer[4096];
+  for (size_t n; (n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0;) out.append(buffer, n);
+  const int status = ::pclose(pipe);
+  twinray_bench::Row best;
+  bool found = false;
+  std::istringstream lines(out);
+  for (std::string line; std::getline(lines, line);) {
+    twinray_bench::Row row;
+    if (!twinray_bench::parse_csv_line(line, row) || row.scene != scene) continue;
+    std::cerr << "twinray: " << line << "\n";
+    if (!found || row.median_ms < best.median_ms) best = row;
+    found = true;
+  }
+  if (status != 0 || !found)
+    throw twinray::Error(twinray::ErrorKind::RuntimeFailure,
+                         a.against + " (for " + scene + ") " +
+                             (status != 0 ? "failed (status " + std::to_string(status) + ")"
+                                          : "printed no CSV row for the scene"));
+  return best;
+}
+
+// The cost per ray against N: one curve per family (spheres_<N>, mesh_<N>) and system.
+void write_plot(const std::string& png, const std::map<std::string, std::vector<double>>& ns,
+                const std::map<std::string, long long>& primitives,
+                const std::vector<std::string>& systems, const std::string& comparator) {
+  std::ostringstream data, plot;
+  int index = 0;
+  for (const char* family : {"spheres_", "mesh_"})
+    for (const std::string& system : systems) {
+      std::vector<std::pair<long long, double>> points;  // (N, ns per ray), by N
+      for (const auto& [key, values] : ns) {
+        // key: "<system>|<scene>"
+        size_t bar = key.find('|');
+        std::string sys = key.substr(0, bar), scene = key.substr(bar + 1);
+        if (sys == system && scene.rfind(family, 0) == 0)
+          points.push_back({primitives.at(scene), median(values)});
+      }
+      std::sort(points.begin(), points.end());
+      std::ostringstream block;
+      for (const auto& [n, value] : points) block << n << " " << value << "\n";
+      if (points.empty()) continue;
+      data << "$d" << index << " << EOD\n" << block.str() << "EOD\n";
+      plot << (index ? ", \\\n     " : "plot ") << "$d" << index
+           << " using 1:2 with linespoints title '"
+           << std::string(family).substr(0, std::string(family).size() - 1) << ", "
+           << (system == "comparator" ? comparator : system) << "'";
+      ++index;
+    }
+  if (index == 0) {
+    std::cerr << "twinray: --plot: no spheres_<N> or mesh_<N> scene was run, so no plot\n";
+    return;
+  }
+  std::string script =
+      data.str() +
+      "set terminal pngcairo size 900,600 noenhanced font ',10'\n"
+      "set output '" +
+      png +
+      ".tmp'\n"
+      "set logscale x\nset grid\nset key top left\n"
+      "set xlabel 'primitives (N)'\nset ylabel 'ns per ray (median frame / rays)'\n"
+      "set title 'cost per ray against N'\n" +
+      plot.str() + "\n";
+  FILE* gp = ::popen("gnuplot", "w");
+  if (!gp) throw twinray::Error(twinray::ErrorKind::RuntimeFailure, "--plot: cannot run gnuplot");
+  std::fwrite(script.data(), 1, script.size(), gp);
+  // Written beside, then renamed: a failed plot leaves an earlier one as it was.
+  if (::pclose(gp) != 0 || std::rename((png + ".tmp").c_str(), png.c_str()) != 0) {
+    std::remove((png + ".tmp").c_str());
+    throw twinray::Error(
+        twinray::ErrorKind::RuntimeFailure,
+        "--plot: gnuplot failed to write " + png + " (Debian: apt-get install gnuplot-nox)");
+  }
+  std::cerr << "twinray: wrote " << png << "\n";
+}
+
+// Interleaved rounds of twinray and the comparison program; the ratios on stdout.
+int run_compare(const BenchArgs& a, const std::vector<std::string>& scenes,
+                const std::vector<twinray::Backend>& backends,
+                const twinray_bench::Config& config) {
+  struct Sample {
+    std::map<std::string, std::vector<double>> ms;  // system -> median ms, per round
+    std::vector<double> cpu_over_other;
+    long long rays = 0, primitives = 0;
+    std::string other_backend;
+  };
+  std::map<std::string, Sample> samples;
+  std::vector<std::string> systems;
+  for (int round = 1; round <= a.rounds; ++round)
+    for (const std::string& name : scenes) {
+      std::cerr << "twinray: round " << round << " of " << a.rounds << ": " << name << "\n";
+      Sample& s = samples[name];
+      twinray_bench::BenchScene<float> b = load<float>(name, a);
+      double cpu = 0;
+      for (twinray::Backend backend : backends) {
+        twinray_bench::Row row = twinray_bench::run(b, backend, config);
+        std::cerr << "twinray: " << twinray_bench::csv_line(row) << "\n";
+        std::string system = "twinray-" + row.backend;
+        s.ms[system].push_back(row.median_ms);
+        if (std::find(systems.begin(), systems.end(), system) == systems.end())
+          systems.push_back(system);
+        if (backend == twinray::Backend::Cpu) cpu = row.median_ms;
+        s.rays = row.rays;
+        s.primitives = row.primitives;
+      }
+      twinray_bench::Row other = run_against(a, name);
+      s.ms["comparator"].push_back(other.median_ms);
+      s.other_backend = other.backend;
+      if (cpu > 0) s.cpu_over_other.push_back(cpu / other.median_ms);
+    }
+  systems.push_back("comparator");
+  std::cout << "scene,rays,twinray_cpu_ms,twinray_opencl_ms,comparator_ms,comparator_backend,"
+               "cpu_over_comparator,cpu_over_comparator_min,cpu_over_comparator_max,"
+               "opencl_over_cpu"
+            << std::endl;
+  std::map<std::string, std::vector<double>> ns_per_ray;
+  std::map<std::string, long long> primitives;
+  for (const std::string& name : scenes) {
+    Sample& s = samples[name];
+    auto ms = [&](const std::string& system) {
+      auto it = s.ms.find(system);
+      return it == s.ms.end() ? 0.0 : median(it->second);
+    };
+    double cpu = ms("twinray-cpu"), cl = ms("twinray-opencl"), other = ms("comparator");
+    auto [lo, hi] = s.cpu_over_other.empty()
+                        ? std::pair<double, double>(0, 0)
+                        : std::pair<double, double>(
+                              *std::min_element(s.cpu_over_other.begin(), s.cpu_over_other.end()),
+                              *std::max_element(s.cpu_over_other.begin(), s.cpu_over_other.end()));
+    // A figure of a backend that was not run is left empty.
+    auto field = [](double v, const char* format) {
+      char text[64] = "";
+      if (v > 0) std::snprintf(text, sizeof text, format, v);
+      return std::string(text);
+    };
+    std::cout << name << ',' << s.rays << ',' << field(cpu, "%.1f") << ',' << field(cl, "%.1f")
+              << ',' << field(other, "%.1f") << ',' << s.other_backend << ','
+              << field(median(s.cpu_over_other), "%.3f") << ',' << field(lo, "%.3f") << ','
+              << field(hi, "%.3f") << ',' << field(cpu > 0 && cl > 0 ? cl / cpu : 0.0, "%.3f")
+              << std::endl;
+    primitives[name] = s.primitives;
+    for (const auto& [system, values] : s.ms)
+      for (double v : values)
+        if (s.rays > 0) ns_per_ray[system + "|" + name].push_back(v * 1e6 / double(s.rays));
+  }
+  if (!a.plot.empty()) {
+    std::string program = a.against.substr(a.against.find_last_of('/') + 1);
+    write_plot(a.plot, ns_per_ray, primitives, systems, program);
+  }
+  return kExitOk;
+}
+
 int run_bench(const BenchArgs& a) {
   std::vector<std::string> scenes =
       a.scene.empty() ? twinray_bench::default_scenes() : std::vector<std::string>{a.scene};
@@ -77,6 +265,13 @@ int run_bench(const BenchArgs& a) {
   config.bvh = a.bvh == "on" ? 1 : (a.bvh == "off" ? -1 : 0);
   config.note = [](const std::string& s) { std::cerr << "twinray: " << s << "\n"; };
   std::cerr << "twinray: machine: " << twinray_bench::machine_description() << "\n";
+  if (!a.against.empty()) {
+    if (a.plot.find('\'') != std::string::npos) usage_error("--plot: the file name has a quote");
+    if (a.precision != "float")
+      usage_error("--against: the comparison renders in float only (Embree is single precision)");
+    return run_compare(a, scenes, backends, config);
+  }
+  if (!a.plot.empty()) usage_error("--plot: give --against too (it plots both systems)");
   std::cout << twinray_bench::csv_header() << std::endl;
   for (const std::string& name : scenes)
     for (const std::string& precision : precisions) {
@@ -117,6 +312,13 @@ const Command kBench(
       app.add_option("--bvh", a->bvh, "auto (the measured threshold), on, off")
           ->check(CLI::IsMember({"auto", "on", "off"}));
       app.add_option("--obj-dir", a->obj_dir, "folder for the obj_<N> scenes' OBJ files");
+      app.add_option("--against", a->against,
+                     "a comparison program (bench/embree_bench): interleaved rounds, and the "
+                     "ratios as CSV");
+      app.add_option("--rounds", a->rounds, "rounds with --against (default 3)")
+          ->check(CLI::Range(1, 100));
+      app.add_option("--plot", a->plot,
+                     "with --against: a PNG of the cost per ray against N (gnuplot)");
       return [a] { return run_bench(*a); };
     },
     60);

@@ -1,10 +1,12 @@
 // Tests of the real `twinray` program (docs/command-line.md): exit statuses, malformed scene
-// files, atomic outputs, the OpenCL backend missing, the progress bar, and bit-exact
-// images: demo.json against examples/demo.cpp, and CPU against OpenCL.
+// files, atomic outputs, the OpenCL backend missing, the progress bar, bit-exact images:
+// demo.json against examples/demo.cpp, and CPU against OpenCL; and `bench --against`.
 #include <doctest/doctest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
 #include <set>
 #include <string>
 #include <utility>
@@ -625,4 +627,96 @@ TEST_CASE("command-line options override the scene file") {
                    "--max-depth", "1", "--no-shadows"},
                   dir);
   CHECK_MESSAGE(r.status == 0, r.err);
+}
+
+namespace {
+
+// A comparison program for `bench --against`: a script that records its arguments and
+// prints, for the scene it is given, two rows in the CSV of bench/embree_bench (the slower
+// one first), or fails as `mode` says.
+std::string fake_comparator(const std::string& dir, const std::string& mode) {
+  const std::string path = dir + "/compare_" + mode + ".sh";
+  std::string row = ",float,192,108,1,8,0.1,%s,%s,%s,1000,1.00,10\"\n";
+  auto line = [&](const char* backend, const char* ms) {
+    char text[200];
+    std::snprintf(text, sizeof text, row.c_str(), ms, ms, ms);
+    return std::string("echo \"$2,") + backend + text;
+  };
+  std::string script = "#!/bin/sh\necho \"$@\" >> '" + dir + "/args.txt'\n";
+  if (mode == "fails") script += "exit 4\n";
+  script +=
+      "echo scene,backend,precision,width,height,spp,primitives,build_ms,render_ms_min,"
+      "render_ms_median,render_ms_max,rays,mrays_per_s,peak_mib\n";
+  if (mode != "silent") script += line("fake-slow", "4.0") + line("fake-fast", "2.0");
+  write_file(path, script);
+  std::filesystem::permissions(path, std::filesystem::perms::owner_all);
+  return path;
+}
+
+std::vector<std::string> csv_fields(const std::string& line) {
+  std::vector<std::string> out(1);
+  for (char c : line)
+    if (c == ',')
+      out.emplace_back();
+    else
+      out.back().push_back(c);
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("bench --against: interleaved rounds, and CPU over the comparator's fastest row") {
+  const std::string dir = fresh_folder(kWork, "bench_against");
+  const std::vector<std::string> size = {"--width", "192", "--height", "108", "--runs", "1"};
+  auto bench = [&](std::vector<std::string> args) {
+    args.insert(args.begin(), "bench");
+    args.insert(args.end(), size.begin(), size.end());
+    return run_twinray(args, dir);
+  };
+  Result r =
+      bench({"demo", "--backend", "cpu", "--rounds", "2", "--against", fake_comparator(dir, "ok")});
+  REQUIRE(r.status == 0);
+  CHECK(contains(r.out, "scene,rays,twinray_cpu_ms,twinray_opencl_ms,comparator_ms,"));
+  const std::string row = r.out.substr(r.out.find("\ndemo,") + 1);
+  std::vector<std::string> f = csv_fields(row.substr(0, row.find('\n')));
+  REQUIRE(f.size() == 10);
+  CHECK(f[4] == "2.0");        // the fastest row
+  CHECK(f[5] == "fake-fast");  // and its name
+  CHECK(f[3].empty());         // OpenCL was not run
+  CHECK(f[9].empty());
+  const double cpu = std::stod(f[2]), ratio = std::stod(f[6]);
+  CHECK(cpu > 0.0);
+  // Two rounds: the median of cpu_i / 2 is the median of cpu_i over 2 (cpu printed to 0.1).
+  CHECK(std::abs(ratio - cpu / 2.0) <= 0.05 / 2.0 + 0.001);
+  CHECK(std::stod(f[7]) <= ratio);
+  CHECK(std::stod(f[8]) >= ratio);
+  // One call per round, with the scene and the frame's size.
+  const std::string args = read_file(dir + "/args.txt");
+  CHECK(std::count(args.begin(), args.end(), '\n') == 2);
+  CHECK(contains(args, "--scenes demo --runs 1 --obj-dir . --width 192 --height 108"));
+
+  // A comparator that fails, or prints no row for the scene: status 1, named.
+  r = bench(
+      {"demo", "--backend", "cpu", "--rounds", "1", "--against", fake_comparator(dir, "fails")});
+  CHECK(r.status == 1);
+  CHECK(contains(r.err, "compare_fails.sh (for demo) failed"));
+  r = bench(
+      {"demo", "--backend", "cpu", "--rounds", "1", "--against", fake_comparator(dir, "silent")});
+  CHECK(r.status == 1);
+  CHECK(contains(r.err, "printed no CSV row for the scene"));
+  // Refused before any work: status 2.
+  CHECK(bench({"demo", "--precision", "double", "--against", fake_comparator(dir, "ok")}).status ==
+        2);
+  CHECK(bench({"demo", "--plot", "p.png"}).status == 2);
+
+  // The cost-per-ray plot, where gnuplot is installed (scripts/packages.txt has it).
+  if (run({"sh", "-c", "command -v gnuplot"}).status != 0) {
+    MESSAGE("skipped the plot: no gnuplot");
+    return;
+  }
+  r = bench({"mesh_1e3", "--backend", "cpu", "--rounds", "1", "--plot", "cost.png", "--against",
+             fake_comparator(dir, "ok")});
+  CHECK(r.status == 0);
+  CHECK(read_file(dir + "/cost.png").rfind("\x89PNG", 0) == 0);
+  CHECK(!std::filesystem::exists(dir + "/cost.png.tmp"));
 }

@@ -18,6 +18,7 @@
 #include <functional>
 #include <iostream>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -58,6 +59,34 @@ inline std::string csv_line(const Row& r) {
                 r.primitives, r.build_ms, r.min_ms, r.median_ms, r.max_ms, r.rays, r.mrays_per_s,
                 r.peak_mib);
   return buf;
+}
+
+// A line as csv_line() writes it, read back (the Embree program prints the same
+// columns); false for the header or anything else.
+inline bool parse_csv_line(const std::string& line, Row& r) {
+  std::vector<std::string> f;
+  std::stringstream in(line);
+  for (std::string item; std::getline(in, item, ',');) f.push_back(item);
+  if (f.size() != 14) return false;
+  try {
+    size_t used = 0;
+    auto number = [&](const std::string& s) {
+      double v = std::stod(s, &used);
+      if (used != s.size()) throw std::invalid_argument(s);
+      return v;
+    };
+    r.scene = f[0], r.backend = f[1], r.precision = f[2];
+    r.width = static_cast<int>(number(f[3])), r.height = static_cast<int>(number(f[4]));
+    r.spp = static_cast<int>(number(f[5]));
+    r.primitives = static_cast<long long>(number(f[6]));
+    r.build_ms = number(f[7]), r.min_ms = number(f[8]), r.median_ms = number(f[9]);
+    r.max_ms = number(f[10]);
+    r.rays = static_cast<long long>(number(f[11]));
+    r.mrays_per_s = number(f[12]), r.peak_mib = number(f[13]);
+  } catch (const std::exception&) {
+    return false;
+  }
+  return true;
 }
 
 // ---- the machine ----
