@@ -3,7 +3,7 @@
 // runner and the built-in scenes are apps/twinray/bench/bench_runner.hpp and
 // bench/bench_scenes.hpp, shared with the bench/twinray_bench.cpp program.
 //
-// With `--against PROGRAM` (bench/embree_bench, or any program that takes its options and
+// With `--against PROGRAM` (build/bench/embree_bench, or any program that takes its options and
 // prints the same CSV), rounds of both are interleaved scene by scene, and stdout has the
 // ratios instead: per scene the medians over the rounds, and CPU / comparator taken within
 // each round (median, least, largest). `--plot FILE.png` draws the cost per ray against the
@@ -313,7 +313,7 @@ const Command kBench(
           ->check(CLI::IsMember({"auto", "on", "off"}));
       app.add_option("--obj-dir", a->obj_dir, "folder for the obj_<N> scenes' OBJ files");
       app.add_option("--against", a->against,
-                     "a comparison program (bench/embree_bench): interleaved rounds, and the "
+                     "a comparison program (build/bench/embree_bench): interleaved rounds, and the "
                      "ratios as CSV");
       app.add_option("--rounds", a->rounds, "rounds with --against (default 3)")
           ->check(CLI::Range(1, 100));

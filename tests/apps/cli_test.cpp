@@ -632,7 +632,7 @@ TEST_CASE("command-line options override the scene file") {
 namespace {
 
 // A comparison program for `bench --against`: a script that records its arguments and
-// prints, for the scene it is given, two rows in the CSV of bench/embree_bench (the slower
+// prints, for the scene it is given, two rows in the CSV of bench/embree_bench.cpp (the slower
 // one first), or fails as `mode` says.
 std::string fake_comparator(const std::string& dir, const std::string& mode) {
   const std::string path = dir + "/compare_" + mode + ".sh";
