@@ -67,13 +67,23 @@ struct ObjReference {
   long long line = 0;
 };
 
-// The records of a file, or of one piece of it.
-struct ObjCounts {
+// How many records of each kind a file, a piece of it, or the pieces before one hold.
+struct ObjTally {
   long long lines = 0, vertices = 0, texcoords = 0, normals = 0;
-  long long triangles = 0;              // after triangulation
-  long long polygons = 0;               // faces of more than 3 corners
+  long long triangles = 0;  // after triangulation
+  long long polygons = 0;   // faces of more than 3 corners
+  long long use_lines = 0;  // `usemtl` lines
+
+  void add(const ObjTally& o) {
+    lines += o.lines, vertices += o.vertices, texcoords += o.texcoords, normals += o.normals;
+    triangles += o.triangles, polygons += o.polygons, use_lines += o.use_lines;
+  }
+};
+
+// The records of a file, or of one piece of it, with the names its lines give.
+struct ObjCounts : ObjTally {
   std::vector<ObjReference> libraries;  // `mtllib` files, in order
-  std::vector<ObjReference> uses;       // `usemtl` lines, in order (name "" for none)
+  std::vector<ObjReference> uses;       // the use_lines `usemtl` lines (name "" for none)
 };
 
 inline bool obj_space(char c) {
@@ -186,6 +196,16 @@ inline int obj_index(std::string_view token, long long total, long long before, 
     throw invalid_input(obj_where(name, line) + what + " index " + std::string(token) +
                         " is out of range: " + std::to_string(before) + " before this line");
   return static_cast<int>(value > 0 ? value - 1 : before + value);
+}
+
+// What is wrong with a face of `corners` corners, or "" when nothing is: at least 3, and
+// at most the limit.
+inline std::string obj_face_corners_problem(long long corners, const ObjLimits& limits) {
+  if (corners < 3) return "a face needs at least 3 corners, got " + std::to_string(corners);
+  if (corners > limits.max_face_corners)
+    return "a face of " + std::to_string(corners) + " corners, more than the limit of " +
+           std::to_string(limits.max_face_corners);
+  return "";
 }
 
 enum class ObjKey { Other, Vertex, Texcoord, Normal, Face, Library, UseMaterial };
@@ -318,10 +338,9 @@ struct ObjPiece {
   ObjCounts counts;
   long long problem_line = 0;  // the first line the first pass refuses (0: none)
   std::string problem;
-  // Set between the passes: the file's line number and record counts before the piece.
-  long long first_line = 1;
-  ObjCounts before;  // libraries and uses stay empty: uses_before counts the latter
-  long long uses_before = 0;
+  ObjTally before;  // set between the passes: the records of the pieces before this one
+
+  long long first_line() const { return before.lines + 1; }
 };
 
 // The first pass over a piece: counts its records; notes its first line that is not
@@ -358,15 +377,10 @@ inline void scan_obj_piece(const ObjSource& source, ObjPiece& piece, const ObjLi
           corners += space & (is_space ^ 1u);
           space = is_space;
         }
-        if (corners < 3)
-          note("a face needs at least 3 corners, got " + std::to_string(corners));
-        else if (corners > limits.max_face_corners)
-          note("a face of " + std::to_string(corners) + " corners, more than the limit of " +
-               std::to_string(limits.max_face_corners));
-        else {
-          c.triangles += corners - 2;
-          c.polygons += corners > 3;
-        }
+        if (std::string problem = obj_face_corners_problem(corners, limits); !problem.empty())
+          return note(std::move(problem));
+        c.triangles += corners - 2;
+        c.polygons += corners > 3;
         break;
       }
       case ObjKey::Library:
@@ -375,6 +389,7 @@ inline void scan_obj_piece(const ObjSource& source, ObjPiece& piece, const ObjLi
           c.libraries.push_back({std::string(token), number});
         break;
       case ObjKey::UseMaterial:
+        ++c.use_lines;
         c.uses.push_back({std::string(obj_rest(line, pos)), number});
         break;
       case ObjKey::Other:
@@ -416,7 +431,7 @@ struct ObjPieceParser {
         normals(piece.before.normals),
         triangles(piece.before.triangles),
         polygon_count(piece.before.polygons),
-        use(piece.uses_before - 1) {}
+        use(piece.before.use_lines - 1) {}
 
   // A line of text: the first pass has checked that every line this one sees is.
   void line(std::string_view text, long long number) {
@@ -544,14 +559,11 @@ struct ObjPieceParser {
       }
       corners.push_back(c);
     }
+    // The first pass counted this face's triangles with the same check, so the arrays
+    // hold exactly what is written below.
     const long long n = static_cast<long long>(corners.size());
-    if (n < 3)
-      throw invalid_input(obj_where(name, number) + "a face needs at least 3 corners, got " +
-                          std::to_string(n));
-    if (n > limits.max_face_corners)
-      throw invalid_input(obj_where(name, number) + "a face of " + std::to_string(n) +
-                          " corners, more than the limit of " +
-                          std::to_string(limits.max_face_corners));
+    if (std::string problem = obj_face_corners_problem(n, limits); !problem.empty())
+      throw invalid_input(obj_where(name, number) + problem);
     if (mesh) {
       // A fan from the first corner; faces of more than 3 corners are cut again later.
       for (long long k = 1; k + 1 < n; ++k) {
@@ -585,26 +597,25 @@ void triangulate_obj_polygons(Mesh<T>& mesh, const std::vector<ObjPolygon>& poly
   parallel_for(static_cast<int>((polygons.size() + kGrain - 1) / kGrain), 1, [&](int block) {
     std::vector<glm::dvec3> points;
     std::vector<std::array<int, 3>> cut;
-    std::vector<std::array<int, 3>> v, vt, vn;
+    std::vector<int> v, vt, vn;
     const size_t first = static_cast<size_t>(block) * kGrain;
     for (size_t i = first; i < std::min(polygons.size(), first + kGrain); ++i) {
       const ObjPolygon& polygon = polygons[i];
       const size_t t0 = static_cast<size_t>(polygon.first_triangle);
       const int n = polygon.corners;
       // The corners back from the fan: (c0, c1, c2), (c0, c2, c3), ...
-      auto corners_of = [&](const std::vector<std::array<int, 3>>& fan,
-                            std::vector<std::array<int, 3>>& out) {
+      auto corners_of = [&](const std::vector<std::array<int, 3>>& fan, std::vector<int>& out) {
         out.clear();
         if (fan.empty()) return;
-        out.push_back({fan[t0][0]});
-        out.push_back({fan[t0][1]});
-        for (int k = 0; k + 2 < n; ++k) out.push_back({fan[t0 + k][2]});
+        out.push_back(fan[t0][0]);
+        out.push_back(fan[t0][1]);
+        for (int k = 0; k + 2 < n; ++k) out.push_back(fan[t0 + k][2]);
       };
       corners_of(mesh.triangles, v);
       corners_of(mesh.uv_triangles, vt);
       corners_of(mesh.normal_triangles, vn);
       points.clear();
-      for (const auto& c : v) points.push_back(glm::dvec3(mesh.vertices[c[0]]));
+      for (int c : v) points.push_back(glm::dvec3(mesh.vertices[c]));
       long long work = 0;
       const long long left = budget - spent.load(std::memory_order_relaxed);
       if (!triangulate_polygon(points, cut, work, left))
@@ -614,9 +625,9 @@ void triangulate_obj_polygons(Mesh<T>& mesh, const std::vector<ObjPolygon>& poly
       spent += work;
       for (size_t k = 0; k < cut.size(); ++k) {
         const auto& c = cut[k];
-        mesh.triangles[t0 + k] = {v[c[0]][0], v[c[1]][0], v[c[2]][0]};
-        if (!vt.empty()) mesh.uv_triangles[t0 + k] = {vt[c[0]][0], vt[c[1]][0], vt[c[2]][0]};
-        if (!vn.empty()) mesh.normal_triangles[t0 + k] = {vn[c[0]][0], vn[c[1]][0], vn[c[2]][0]};
+        mesh.triangles[t0 + k] = {v[c[0]], v[c[1]], v[c[2]]};
+        if (!vt.empty()) mesh.uv_triangles[t0 + k] = {vt[c[0]], vt[c[1]], vt[c[2]]};
+        if (!vn.empty()) mesh.normal_triangles[t0 + k] = {vn[c[0]], vn[c[1]], vn[c[2]]};
       }
     }
   });
@@ -701,29 +712,19 @@ ObjRead<T> read_obj(const ObjSource& source, const std::string& name, const ObjL
   ObjRead<T> out;
   ObjCounts& total = out.counts;
   for (ObjPiece& piece : pieces) {
-    piece.first_line = total.lines + 1;
-    piece.before.vertices = total.vertices;
-    piece.before.texcoords = total.texcoords;
-    piece.before.normals = total.normals;
-    piece.before.triangles = total.triangles;
-    piece.before.polygons = total.polygons;
-    piece.uses_before = static_cast<long long>(total.uses.size());
+    piece.before = total;
     const ObjCounts& c = piece.counts;
-    total.lines += c.lines;
-    total.vertices += c.vertices;
-    total.texcoords += c.texcoords;
-    total.normals += c.normals;
-    total.triangles += c.triangles;
-    total.polygons += c.polygons;
+    total.add(c);
     for (const ObjReference& r : c.libraries)
-      total.libraries.push_back({r.name, r.line + piece.first_line - 1});
+      total.libraries.push_back({r.name, r.line + piece.before.lines});
     for (const ObjReference& r : c.uses)
-      total.uses.push_back({r.name, r.line + piece.first_line - 1});
+      total.uses.push_back({r.name, r.line + piece.before.lines});
   }
 
-  // The first line refused, in file order: the first pass's, unless a line above it
-  // fails the second pass's checks.
-  auto first_error = [&](int last_piece, long long last_line, Mesh<T>* mesh,
+  // The second pass over pieces 0 to last_piece, lines before last_line: into `mesh`,
+  // or only checked when it is null. Of the lines it refuses, the first in the file is
+  // thrown.
+  auto second_pass = [&](int last_piece, long long last_line, Mesh<T>* mesh,
                          std::vector<ObjPolygon>* polygons) {
     std::vector<std::exception_ptr> errors(static_cast<size_t>(last_piece + 1));
     parallel_for(last_piece + 1, 1, [&](int k) {
@@ -731,7 +732,7 @@ ObjRead<T> read_obj(const ObjSource& source, const std::string& name, const ObjL
       ObjPieceParser<T> parser(mesh, polygons ? polygons->data() : nullptr, total, piece, name,
                                limits);
       try {
-        source.for_each_line(piece.begin, piece.end, piece.first_line,
+        source.for_each_line(piece.begin, piece.end, piece.first_line(),
                              [&](std::string_view line, long long number) {
                                if (number < last_line) parser.line(line, number);
                              });
@@ -742,10 +743,12 @@ ObjRead<T> read_obj(const ObjSource& source, const std::string& name, const ObjL
     for (std::exception_ptr& e : errors)
       if (e) std::rethrow_exception(e);
   };
+  // The first line refused, in file order: the first pass's, unless a line above it
+  // fails the second pass's checks.
   for (int k = 0; k < n_pieces; ++k) {
     if (pieces[k].problem_line == 0) continue;
-    const long long line = pieces[k].first_line + pieces[k].problem_line - 1;
-    first_error(k, line, nullptr, nullptr);
+    const long long line = pieces[k].before.lines + pieces[k].problem_line;
+    second_pass(k, line, nullptr, nullptr);
     throw invalid_input(obj_where(name, line) + pieces[k].problem);
   }
 
@@ -777,7 +780,7 @@ ObjRead<T> read_obj(const ObjSource& source, const std::string& name, const ObjL
   }
   if (with_materials && !total.uses.empty()) mesh.triangle_materials.resize(n_triangles);
   std::vector<ObjPolygon> polygons(static_cast<size_t>(total.polygons));
-  first_error(n_pieces - 1, total.lines + 1, &mesh, &polygons);
+  second_pass(n_pieces - 1, total.lines + 1, &mesh, &polygons);
   triangulate_obj_polygons(mesh, polygons, name);
   settle_obj_attributes(mesh);
   return out;
