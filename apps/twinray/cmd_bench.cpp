@@ -20,6 +20,7 @@
 #include "bench/bench_runner.hpp"
 #include "cli_common.hpp"
 #include "command.hpp"
+#include "report_metrics.hpp"
 
 namespace twinray_cli {
 namespace {
@@ -64,13 +65,6 @@ twinray_bench::BenchScene<T> load(const std::string& name, const BenchArgs& a) {
   }
   if (a.spp > 0) b.spp = a.spp;
   return b;
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 std::string shell_quote(const std::string& s) {
@@ -125,7 +119,7 @@ void write_plot(const std::string& png, const std::map<std::string, std::vector<
         size_t bar = key.find('|');
         std::string sys = key.substr(0, bar), scene = key.substr(bar + 1);
         if (sys == system && scene.rfind(family, 0) == 0)
-          points.push_back({primitives.at(scene), median(values)});
+          points.push_back({primitives.at(scene), report::median(values)});
       }
       std::sort(points.begin(), points.end());
       std::ostringstream block;
@@ -210,7 +204,7 @@ int run_compare(const BenchArgs& a, const std::vector<std::string>& scenes,
     Sample& s = samples[name];
     auto ms = [&](const std::string& system) {
       auto it = s.ms.find(system);
-      return it == s.ms.end() ? 0.0 : median(it->second);
+      return it == s.ms.end() ? 0.0 : report::median(it->second);
     };
     double cpu = ms("twinray-cpu"), cl = ms("twinray-opencl"), other = ms("comparator");
     auto [lo, hi] = s.cpu_over_other.empty()
@@ -226,7 +220,7 @@ int run_compare(const BenchArgs& a, const std::vector<std::string>& scenes,
     };
     std::cout << name << ',' << s.rays << ',' << field(cpu, "%.1f") << ',' << field(cl, "%.1f")
               << ',' << field(other, "%.1f") << ',' << s.other_backend << ','
-              << field(median(s.cpu_over_other), "%.3f") << ',' << field(lo, "%.3f") << ','
+              << field(report::median(s.cpu_over_other), "%.3f") << ',' << field(lo, "%.3f") << ','
               << field(hi, "%.3f") << ',' << field(cpu > 0 && cl > 0 ? cl / cpu : 0.0, "%.3f")
               << std::endl;
     primitives[name] = s.primitives;
