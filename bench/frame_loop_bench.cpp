@@ -87,7 +87,7 @@ int main(int argc, char** argv) {
 
       t0 = std::chrono::steady_clock::now();
       auto backend = twinray::make_backend<float>(options);
-      backend->set_scene(twinray::share(twinray::pack_scene(b.scene)));
+      backend->set_scene(twinray::share(twinray::pack_scene(b.scene, backend->pack_options())));
       for (int i = 0; i < frames; ++i)
         (void)backend->render({camera_at(b.camera, i), b.scene.lights, options});
       reused.push_back(ms_since(t0) / frames);

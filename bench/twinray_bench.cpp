@@ -3,7 +3,7 @@
 //
 //   twinray_bench [--scenes demo,spheres_1e6,...] [--backends cpu,opencl]
 //                 [--precisions float,double] [--runs R] [--width W] [--height H]
-//                 [--threads N] [--bvh auto|on|off] [--obj-dir DIR]
+//                 [--threads N] [--bvh auto|on|off] [--bvh-width 2|4|8] [--obj-dir DIR]
 //
 // Defaults: the built-in set (bench_scenes.hpp) at 1920x1080, both backends (OpenCL
 // when a device exists), float, 5 timed runs after one warm-up.
@@ -22,7 +22,7 @@ int usage(const std::string& what) {
       << "twinray_bench: " << what
       << "\nusage: twinray_bench [--scenes a,b] [--backends cpu,opencl] [--precisions "
          "float,double] [--runs R] [--width W] [--height H] [--threads N] [--bvh auto|on|off] "
-         "[--obj-dir DIR]\n";
+         "[--bvh-width 2|4|8] [--obj-dir DIR]\n";
   return 2;
 }
 
@@ -58,6 +58,9 @@ int main(int argc, char** argv) {
       else if (a == "--bvh") {
         std::string v = value();
         config.bvh = v == "on" ? 1 : (v == "off" ? -1 : 0);
+      } else if (a == "--bvh-width") {
+        config.bvh_width = std::atoi(value().c_str());
+        if (!twinray::bvh::valid_width(config.bvh_width)) return usage("--bvh-width: 2, 4 or 8");
       } else if (a == "--obj-dir")
         obj_dir = value();
       else

@@ -29,7 +29,7 @@ int main(int argc, char** argv) {
     std::unique_ptr<twinray::RenderBackend<float>> backend = twinray::make_backend<float>(options);
     // Packed (with its BVH) and handed over once; the backend uploads it at the first
     // frame and keeps it.
-    backend->set_scene(twinray::share(twinray::pack_scene(scene)));
+    backend->set_scene(twinray::share(twinray::pack_scene(scene, backend->pack_options())));
 
     const int frames = 60;
     double total_ms = 0;

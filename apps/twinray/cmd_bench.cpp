@@ -31,6 +31,7 @@ struct BenchArgs {
   std::string precision = "float";
   int runs = 5, width = 0, height = 0, spp = 0, threads = 0;
   std::string bvh = "auto";
+  int bvh_width = 0;  // 0: each backend's own
   std::string obj_dir = ".";
   std::string against;  // a comparison program: interleaved rounds and ratios
   int rounds = 3;
@@ -257,6 +258,7 @@ int run_bench(const BenchArgs& a) {
   config.runs = a.runs;
   twinray::set_thread_count(a.threads);
   config.bvh = a.bvh == "on" ? 1 : (a.bvh == "off" ? -1 : 0);
+  config.bvh_width = a.bvh_width;
   config.note = [](const std::string& s) { std::cerr << "twinray: " << s << "\n"; };
   std::cerr << "twinray: machine: " << twinray_bench::machine_description() << "\n";
   if (!a.against.empty()) {
@@ -305,6 +307,9 @@ const Command kBench(
           ->check(CLI::Range(0, 1024));
       app.add_option("--bvh", a->bvh, "auto (the measured threshold), on, off")
           ->check(CLI::IsMember({"auto", "on", "off"}));
+      app.add_option("--bvh-width", a->bvh_width,
+                     "children per BVH node: 2, 4 or 8 (default: the fastest on each backend)")
+          ->check(CLI::IsMember({2, 4, 8}));
       app.add_option("--obj-dir", a->obj_dir, "folder for the obj_<N> scenes' OBJ files");
       app.add_option("--against", a->against,
                      "a comparison program (build/bench/embree_bench): interleaved rounds, and the "

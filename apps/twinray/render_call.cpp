@@ -38,7 +38,8 @@ twinray::Image<T> SceneRenderer<T>::render(const twinray::io::SceneFile<T>& file
   double pack_ms = 0;
   if (!s.packed || geometry != s.geometry) {
     auto t0 = std::chrono::steady_clock::now();
-    s.backend->set_scene(twinray::share(twinray::pack_scene(file.scene)));
+    s.backend->set_scene(
+        twinray::share(twinray::pack_scene(file.scene, s.backend->pack_options())));
     pack_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     s.packed = true;

@@ -7,7 +7,7 @@
 //
 // A frame loop keeps one backend and packs the scene once (backend/backend.hpp):
 //   auto backend = twinray::make_backend<float>(options);
-//   backend->set_scene(twinray::share(twinray::pack_scene(scene)));
+//   backend->set_scene(twinray::share(twinray::pack_scene(scene, backend->pack_options())));
 //   twinray::Image<float> frame = backend->render({camera, scene.lights, options});
 //
 // This header is the core (scene, camera, CPU backend; GLM and threads only). Link

@@ -75,7 +75,7 @@ TEST_CASE_TEMPLATE("buffer structs have the same size in the kernel as on the ho
   std::vector<int> host = {
       int(sizeof(typename Code::Sphere)), int(sizeof(typename Code::Triangle)),
       int(sizeof(typename Code::Plane)),  int(sizeof(typename Code::Material)),
-      int(sizeof(typename Code::Light)),  int(sizeof(typename Code::BvhNode)),
+      int(sizeof(typename Code::Light)),  int(sizeof(T)),
       int(sizeof(typename Code::Params)), int(sizeof(typename Code::TriangleAttr)),
       int(sizeof(typename Code::Texture))};
   CHECK(device == host);

@@ -1,11 +1,12 @@
-// The BVH's structure (every primitive reachable once, boxes contain what they bound,
-// depth within the traversal stack) and its traversal against the linear loops: the
-// closest hit and the any-hit answer of every ray agree exactly.
+// The BVH's structure at every width (every primitive reachable once, boxes contain
+// what they bound, depth within the traversal stack) and its traversal against the linear loops:
+// the closest hit and the any-hit answer of every ray agree exactly.
 #include <doctest/doctest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -23,9 +24,12 @@ template <class T>
 using K = typename Code<T>::template Kernel<TR_F_ALL>;
 
 template <class T>
-PackedScene<T> pack_with_bvh(const twinray::Scene<T>& scene, int threads = 0) {
+PackedScene<T> pack_with_bvh(const twinray::Scene<T>& scene, int threads = 0, int width = 8) {
   twinray::set_thread_count(threads);
-  PackedScene<T> ps = twinray::pack_scene(scene, twinray::BvhPolicy::Always);
+  twinray::PackOptions options;
+  options.bvh = twinray::BvhPolicy::Always;
+  options.bvh_width = width;
+  PackedScene<T> ps = twinray::pack_scene(scene, options);
   twinray::set_thread_count(0);
   return ps;
 }
@@ -48,64 +52,80 @@ void prim_bounds(const PackedScene<T>& ps, int id, T lo[3], T hi[3]) {
   }
 }
 
-template <class Node>
-bool contains(const Node& outer, const Node& inner) {
-  for (int a = 0; a < 3; ++a)
-    if (!(outer.bounds[TR_BVH_MIN_X + a] <= inner.bounds[TR_BVH_MIN_X + a] &&
-          outer.bounds[TR_BVH_MAX_X + a] >= inner.bounds[TR_BVH_MAX_X + a]))
-      return false;
-  return true;
-}
-
-// Walks the whole tree: every node reached once, children inside parents, leaves
-// around their primitives, every primitive in exactly one leaf.
+// Walks the whole tree: every node reached once, children's boxes inside the box
+// their parent keeps for them, leaves around their primitives, every primitive in
+// exactly one leaf, empty slots empty and the stack bound kept.
 template <class T>
 void check_structure(const PackedScene<T>& ps) {
-  const auto& nodes = ps.bvh_nodes;
+  const int w = ps.bvh_width;
+  REQUIRE(twinray::bvh::valid_width(w));
+  const int n_nodes = ps.bvh_node_count();
   int n = static_cast<int>(ps.spheres.size() + ps.triangles.size());
-  REQUIRE(!nodes.empty());
+  REQUIRE(n_nodes > 0);
+  REQUIRE(ps.bvh_boxes.size() == static_cast<size_t>(6 * w * n_nodes));
+  REQUIRE(ps.bvh_links.size() == static_cast<size_t>(2 * w * n_nodes));
   REQUIRE(static_cast<int>(ps.bvh_prims.size()) == n);
-  CHECK(ps.summary().n_bvh_nodes == static_cast<int>(nodes.size()));
-  CHECK((ps.features & TR_F_BVH) != 0u);
-  std::vector<int> seen_node(nodes.size(), 0), seen_prim(static_cast<size_t>(n), 0);
-  std::vector<std::pair<int, int>> todo{{0, 0}};
+  CHECK(ps.summary().n_bvh_nodes == n_nodes);
+  CHECK((ps.features & TR_F_BVH) == twinray::bvh::width_feature(w));
+  auto box = [&](int node, int plane, int k) {
+    return ps.bvh_boxes[static_cast<size_t>((node * 6 + plane) * w + k)];
+  };
+  std::vector<int> seen_node(static_cast<size_t>(n_nodes), 0), seen_prim(static_cast<size_t>(n), 0);
+  // (node, inner nodes on the path including it, the parent's slot holding it)
+  struct Todo {
+    int node, depth, parent, slot;
+  };
+  std::vector<Todo> todo{{0, 1, -1, 0}};
   int max_depth = 0;
   while (!todo.empty()) {
-    auto [i, depth] = todo.back();
+    Todo t = todo.back();
     todo.pop_back();
-    REQUIRE(i >= 0);
-    REQUIRE(i < static_cast<int>(nodes.size()));
-    seen_node[i]++;
-    const auto& node = nodes[i];
-    if (node.count > 0) {
-      max_depth = std::max(max_depth, depth);
-      REQUIRE(node.first + node.count <= n);
-      for (int k = node.first; k < node.first + node.count; ++k) {
-        int id = ps.bvh_prims[k];
+    REQUIRE(t.node >= 0);
+    REQUIRE(t.node < n_nodes);
+    seen_node[t.node]++;
+    max_depth = std::max(max_depth, t.depth);
+    const int* first = ps.bvh_links.data() + static_cast<size_t>(t.node) * 2 * w;
+    const int* count = first + w;
+    CHECK(count[0] >= 0);  // no node is empty
+    for (int k = 0; k < w; ++k) {
+      if (count[k] < 0) {
+        for (int a = 0; a < 3; ++a) {
+          CHECK(box(t.node, TR_BVH_MIN_X + a, k) == std::numeric_limits<T>::infinity());
+          CHECK(box(t.node, TR_BVH_MAX_X + a, k) == -std::numeric_limits<T>::infinity());
+        }
+        continue;
+      }
+      if (t.parent >= 0) {
+        for (int a = 0; a < 3; ++a) {
+          CHECK(box(t.parent, TR_BVH_MIN_X + a, t.slot) <= box(t.node, TR_BVH_MIN_X + a, k));
+          CHECK(box(t.parent, TR_BVH_MAX_X + a, t.slot) >= box(t.node, TR_BVH_MAX_X + a, k));
+        }
+      }
+      if (count[k] == 0) {
+        todo.push_back({first[k], t.depth + 1, t.node, k});
+        continue;
+      }
+      REQUIRE(first[k] + count[k] <= n);
+      for (int i = first[k]; i < first[k] + count[k]; ++i) {
+        int id = ps.bvh_prims[i];
         REQUIRE(id >= 0);
         REQUIRE(id < n);
         seen_prim[id]++;
         T lo[3], hi[3];
         prim_bounds(ps, id, lo, hi);
         for (int a = 0; a < 3; ++a) {
-          CHECK(node.bounds[TR_BVH_MIN_X + a] < lo[a]);
-          CHECK(node.bounds[TR_BVH_MAX_X + a] > hi[a]);
+          CHECK(box(t.node, TR_BVH_MIN_X + a, k) < lo[a]);
+          CHECK(box(t.node, TR_BVH_MAX_X + a, k) > hi[a]);
         }
       }
-    } else {
-      REQUIRE(node.count >= -2);
-      REQUIRE(node.first + 1 < static_cast<int>(nodes.size()));
-      CHECK(contains(node, nodes[node.first]));
-      CHECK(contains(node, nodes[node.first + 1]));
-      todo.push_back({node.first, depth + 1});
-      todo.push_back({node.first + 1, depth + 1});
     }
   }
   CHECK(std::all_of(seen_node.begin(), seen_node.end(), [](int c) { return c == 1; }));
   CHECK(std::all_of(seen_prim.begin(), seen_prim.end(), [](int c) { return c == 1; }));
-  // The traversal holds at most depth + 1 entries on its stack.
-  CHECK(max_depth <= twinray::bvh::kMaxDepth);
-  CHECK(max_depth + 1 <= TR_BVH_STACK_SIZE);
+  // The traversal pushes at most w - 1 entries per inner node on the path.
+  CHECK(max_depth == twinray::bvh::wide_stats(ps.bvh_links, w).max_depth);
+  CHECK((w - 1) * max_depth <= twinray::bvh::stack_needed(w));
+  CHECK(twinray::bvh::stack_needed(w) <= TR_BVH_STACK_SIZE);
 }
 
 // Rays from random origins inside and around the scene in random directions, plus the
@@ -151,22 +171,48 @@ void check_traversal(PackedScene<T> ps, int n_rays, uint32_t seed) {
 
 TEST_CASE_TEMPLATE("bvh: every primitive is reachable and boxes contain what they bound", T, float,
                    double) {
-  for (int n : {1, 2, 9, 100, 3000}) {
-    CAPTURE(n);
-    check_structure(pack_with_bvh(bvh_test::random_scene<T>(n, n / 2 + 1, 7u + n)));
+  for (int w : twinray::bvh::kWidths)
+    for (int n : {1, 2, 9, 100, 3000}) {
+      CAPTURE(w);
+      CAPTURE(n);
+      check_structure(pack_with_bvh(bvh_test::random_scene<T>(n, n / 2 + 1, 7u + n), 0, w));
+    }
+}
+
+// The fixed-level collapse fills a node with the binary nodes L levels down; SAH trees
+// end in leaves at uneven depths, so nodes are not full (3000 spheres and triangles:
+// 2.9 children per 4-wide node, 3.9 per 8-wide), but each width must still cut the
+// node count and hold more children than the last.
+TEST_CASE("bvh: wider nodes are fewer and fuller") {
+  auto scene = bvh_test::random_scene<float>(3000, 3000, 5u);
+  int nodes[9] = {};
+  double last_fill = 0;
+  for (int w : twinray::bvh::kWidths) {
+    auto ps = pack_with_bvh(scene, 0, w);
+    twinray::bvh::Stats st = twinray::bvh::wide_stats(ps.bvh_links, w);
+    nodes[w] = st.nodes;
+    // Children per node: (nodes - 1) inner children plus the leaves, over the nodes.
+    double fill = double(st.nodes - 1 + st.leaves) / st.nodes;
+    CAPTURE(w);
+    CHECK(fill > 0.45 * w);
+    CHECK(fill > last_fill + 0.8);
+    last_fill = fill;
   }
+  CHECK(nodes[4] < 0.6 * nodes[2]);
+  CHECK(nodes[8] < 0.7 * nodes[4]);
 }
 
 TEST_CASE("bvh: the build does not depend on the thread count") {
   auto scene = bvh_test::random_scene<float>(20000, 20000, 3u);
   auto a = pack_with_bvh(scene, 1), b = pack_with_bvh(scene, 2), c = pack_with_bvh(scene, 4);
   check_structure(c);
-  REQUIRE(a.bvh_nodes.size() == b.bvh_nodes.size());
-  REQUIRE(a.bvh_nodes.size() == c.bvh_nodes.size());
   CHECK(a.bvh_prims == b.bvh_prims);
   CHECK(a.bvh_prims == c.bvh_prims);
-  CHECK(std::memcmp(a.bvh_nodes.data(), c.bvh_nodes.data(),
-                    a.bvh_nodes.size() * sizeof a.bvh_nodes[0]) == 0);
+  CHECK(a.bvh_links == b.bvh_links);
+  CHECK(a.bvh_links == c.bvh_links);
+  REQUIRE(a.bvh_boxes.size() == c.bvh_boxes.size());
+  CHECK(std::memcmp(a.bvh_boxes.data(), c.bvh_boxes.data(),
+                    a.bvh_boxes.size() * sizeof a.bvh_boxes[0]) == 0);
 }
 
 TEST_CASE("bvh: depth stays within the stack on degenerate input") {
@@ -181,20 +227,29 @@ TEST_CASE("bvh: depth stays within the stack on degenerate input") {
     chain.add(
         twinray::Sphere<double>{vec3((i % 2 ? -1 : 1) * std::pow(20.0, i / 2), 0, 0), 0.25, 0});
   for (int i = 0; i < 1000; ++i) clump.add(twinray::Sphere<double>{vec3(1, 2, 3), 0.5, 0});
-  for (auto* scene : {&chain, &clump}) {
-    auto ps = pack_with_bvh(*scene);
-    check_structure(ps);
-    CHECK(twinray::bvh::stats(ps.bvh_nodes).max_depth <= twinray::bvh::kMaxDepth);
-  }
-  // The chain is deep enough to reach the cap.
-  CHECK(twinray::bvh::stats(pack_with_bvh(chain).bvh_nodes).max_depth >=
-        twinray::bvh::kMaxDepth - 8);
+  auto binary_depth = [](const PackedScene<double>& ps) {
+    return twinray::bvh::stats(twinray::bvh::build_binary<double>(ps.spheres, ps.triangles).nodes)
+        .max_depth;
+  };
+  for (auto* scene : {&chain, &clump})
+    for (int w : twinray::bvh::kWidths) {
+      auto ps = pack_with_bvh(*scene, 0, w);
+      check_structure(ps);
+      CHECK(binary_depth(ps) <= twinray::bvh::kMaxDepth);
+    }
+  // The chain is deep enough to reach the cap, and its 8-wide tree the stack bound.
+  auto deep = pack_with_bvh(chain, 0, 8);
+  CHECK(binary_depth(deep) >= twinray::bvh::kMaxDepth - 8);
+  CHECK(twinray::bvh::wide_stats(deep.bvh_links, 8).max_depth >= twinray::bvh::kMaxDepth / 3 - 3);
 }
 
 TEST_CASE_TEMPLATE("bvh: traversal finds exactly the linear loops' closest hit", T, float, double) {
-  check_traversal(pack_with_bvh(bvh_test::random_scene<T>(300, 300, 11u)), 20000, 5u);
-  check_traversal(pack_with_bvh(bvh_test::random_scene<T>(40, 0, 12u)), 5000, 6u);
-  check_traversal(pack_with_bvh(bvh_test::random_scene<T>(0, 60, 13u, false)), 5000, 7u);
+  for (int w : twinray::bvh::kWidths) {
+    CAPTURE(w);
+    check_traversal(pack_with_bvh(bvh_test::random_scene<T>(300, 300, 11u), 0, w), 20000, 5u);
+    check_traversal(pack_with_bvh(bvh_test::random_scene<T>(40, 0, 12u), 0, w), 5000, 6u);
+    check_traversal(pack_with_bvh(bvh_test::random_scene<T>(0, 60, 13u, false), 0, w), 5000, 7u);
+  }
 }
 
 TEST_CASE("bvh: pack builds one from the threshold on, and not below it") {
@@ -203,9 +258,9 @@ TEST_CASE("bvh: pack builds one from the threshold on, and not below it") {
   auto has_bvh = [&](int n_spheres, int n_triangles) {
     auto ps = test_support::pack(bvh_test::random_scene<float>(n_spheres, n_triangles, 1u), camera,
                                  options);
-    CHECK(ps.params().n_bvh_nodes == static_cast<int>(ps.scene.bvh_nodes.size()));
-    CHECK(((ps.frame.features & TR_F_BVH) != 0u) == !ps.scene.bvh_nodes.empty());
-    return !ps.scene.bvh_nodes.empty();
+    CHECK(ps.params().n_bvh_nodes == ps.scene.bvh_node_count());
+    CHECK(((ps.frame.features & TR_F_BVH) != 0u) == !ps.scene.bvh_links.empty());
+    return !ps.scene.bvh_links.empty();
   };
   const int w = static_cast<int>(twinray::bvh::kMinWeight);
   const int tw = twinray::bvh::kTriangleWeight;

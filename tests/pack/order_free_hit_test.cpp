@@ -1,15 +1,16 @@
 // The nearest hit is the smallest (t, primitive id), so it does not depend on the order
 // the BVH offers primitives in. Scenes full of exact ties (every sphere and triangle
 // twice, at the same place, in another material; meshes with shared edges) render to
-// the same bits with the BVH, with the BVH's children and leaves shuffled, and with no
-// BVH at all, in float and double, on both backends. Before hits were ordered by id,
-// a shuffled tree picked the other copy of a tied pair and these images differed.
+// the same bits with 2-, 4- and 8-wide BVHs, with each one's children and leaves
+// shuffled, and with no BVH at all, in float and double, on both backends. Before hits were ordered
+// by id, a shuffled tree picked the other copy of a tied pair and these images differed.
 #include <doctest/doctest.h>
 
 #include <algorithm>
 #include <cstring>
 #include <random>
 #include <string>
+#include <vector>
 
 #include <twinray/twinray.hpp>
 
@@ -38,23 +39,35 @@ twinray::Scene<T> scene_with_ties(uint32_t seed) {
   return scene;
 }
 
-// The same tree with the two children of random inner nodes swapped and every leaf's
+// The same tree with the child slots of every node in a random order and every leaf's
 // primitives in a random order: another traversal order over the same primitives.
 template <class T>
 twinray::PackedScene<T> shuffled(twinray::PackedScene<T> ps, uint32_t seed) {
   std::mt19937 rng(seed);
-  int swaps = 0;
-  for (auto& node : ps.bvh_nodes) {
-    if (node.count > 0) {
-      auto first = ps.bvh_prims.begin() + node.first;
-      std::shuffle(first, first + node.count, rng);
-    } else if (rng() % 2 == 0) {
-      std::swap(ps.bvh_nodes[static_cast<size_t>(node.first)],
-                ps.bvh_nodes[static_cast<size_t>(node.first) + 1]);
-      ++swaps;
+  const int w = ps.bvh_width;
+  int moved = 0;
+  for (int node = 0; node < ps.bvh_node_count(); ++node) {
+    T* box = ps.bvh_boxes.data() + static_cast<size_t>(node) * 6 * w;
+    int* link = ps.bvh_links.data() + static_cast<size_t>(node) * 2 * w;
+    std::vector<int> perm(static_cast<size_t>(w));
+    for (int k = 0; k < w; ++k) perm[static_cast<size_t>(k)] = k;
+    std::shuffle(perm.begin(), perm.end(), rng);
+    std::vector<T> old_box(box, box + 6 * w);
+    std::vector<int> old_link(link, link + 2 * w);
+    for (int k = 0; k < w; ++k) {
+      const int from = perm[static_cast<size_t>(k)];
+      moved += from != k;
+      for (int plane = 0; plane < 6; ++plane)
+        box[plane * w + k] = old_box[static_cast<size_t>(plane * w + from)];
+      link[k] = old_link[static_cast<size_t>(from)];
+      link[w + k] = old_link[static_cast<size_t>(w + from)];
+      if (link[w + k] > 0) {
+        auto first = ps.bvh_prims.begin() + link[k];
+        std::shuffle(first, first + link[w + k], rng);
+      }
     }
   }
-  REQUIRE(swaps > 10);
+  REQUIRE(moved > 10);
   return ps;
 }
 
@@ -75,34 +88,44 @@ bool have_opencl() {
 template <class T>
 void check_order_free(twinray::Backend backend) {
   auto scene = scene_with_ties<T>(31u);
-  auto bvh = twinray::pack_scene(scene, twinray::BvhPolicy::Always);
-  REQUIRE((bvh.features & TR_F_BVH) != 0u);
+  auto pack = [&](int width) {
+    twinray::PackOptions pack_options;
+    pack_options.bvh = twinray::BvhPolicy::Always;
+    pack_options.bvh_width = width;
+    auto ps = twinray::pack_scene(scene, pack_options);
+    REQUIRE((ps.features & TR_F_BVH) == twinray::bvh::width_feature(width));
+    return ps;
+  };
   auto camera = bvh_test::test_camera<T>(96, 72);
   for (auto output : {twinray::Output::Shaded, twinray::Output::ObjectIndex}) {
     twinray::RenderOptions options;
     options.output = output;
-    auto reference = test_support::render_packed(bvh, camera, scene.lights, options, backend);
-    auto linear = test_support::render_packed(test_support::without_bvh(bvh), camera, scene.lights,
-                                              options, backend);
-    CHECK(same_bits(reference, linear));
-    for (uint32_t seed : {1u, 2u, 3u}) {
-      CAPTURE(seed);
-      auto other =
-          test_support::render_packed(shuffled(bvh, seed), camera, scene.lights, options, backend);
-      CHECK(same_bits(reference, other));
+    auto linear = test_support::render_packed(test_support::without_bvh(pack(2)), camera,
+                                              scene.lights, options, backend);
+    for (int width : twinray::bvh::kWidths) {
+      CAPTURE(width);
+      auto bvh = pack(width);
+      auto image = test_support::render_packed(bvh, camera, scene.lights, options, backend);
+      CHECK(same_bits(image, linear));
+      for (uint32_t seed : {1u, 2u}) {
+        CAPTURE(seed);
+        auto other = test_support::render_packed(shuffled(bvh, seed), camera, scene.lights, options,
+                                                 backend);
+        CHECK(same_bits(image, other));
+      }
     }
   }
 }
 
 }  // namespace
 
-TEST_CASE_TEMPLATE("order-free hits: CPU images do not depend on traversal order", T, float,
-                   double) {
+TEST_CASE_TEMPLATE("order-free hits: CPU images do not depend on BVH width or traversal order", T,
+                   float, double) {
   check_order_free<T>(twinray::Backend::Cpu);
 }
 
-TEST_CASE_TEMPLATE("order-free hits: OpenCL images do not depend on traversal order", T, float,
-                   double) {
+TEST_CASE_TEMPLATE("order-free hits: OpenCL images do not depend on BVH width or traversal order",
+                   T, float, double) {
   if (!have_opencl()) {
     MESSAGE("no OpenCL device: skipped");
     return;

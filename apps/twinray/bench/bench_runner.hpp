@@ -146,6 +146,8 @@ struct Config {
   // BVH: 0 as pack_scene decides (the threshold), 1 always, -1 never (threshold
   // measurements)
   int bvh = 0;
+  // BVH width: 0 the backend's (RenderBackend::pack_options), else 2, 4 or 8.
+  int bvh_width = 0;
   std::function<void(const std::string&)> note = [](const std::string& s) {
     std::cerr << s << "\n";
   };
@@ -166,25 +168,28 @@ Row run(const BenchScene<T>& b, twinray::Backend backend, const Config& config) 
   options.log = [&](const std::string& s) { config.note(s); };
 
   reset_peak();
+  std::unique_ptr<twinray::RenderBackend<T>> renderer = twinray::make_backend<T>(options);
+  twinray::PackOptions pack = renderer->pack_options();
+  pack.bvh = config.bvh > 0   ? twinray::BvhPolicy::Always
+             : config.bvh < 0 ? twinray::BvhPolicy::Never
+                              : twinray::BvhPolicy::Auto;
+  if (config.bvh_width > 0) pack.bvh_width = config.bvh_width;
   auto t0 = std::chrono::steady_clock::now();
-  const twinray::BvhPolicy policy = config.bvh > 0   ? twinray::BvhPolicy::Always
-                                    : config.bvh < 0 ? twinray::BvhPolicy::Never
-                                                     : twinray::BvhPolicy::Auto;
-  auto ps = twinray::share(twinray::pack_scene(b.scene, policy));
+  auto ps = twinray::share(twinray::pack_scene(b.scene, pack));
   row.build_ms = ms_since(t0);
   row.primitives =
       static_cast<long long>(ps->spheres.size() + ps->triangles.size() + ps->planes.size());
-  if (!ps->bvh_nodes.empty()) {
-    twinray::bvh::Stats st = twinray::bvh::stats(ps->bvh_nodes);
-    char buf[160];
-    std::snprintf(
-        buf, sizeof buf, ": BVH %d nodes, %d leaves (%.2f primitives each, at most %d), depth %d",
-        st.nodes, st.leaves, double(ps->bvh_prims.size()) / st.leaves, st.max_leaf, st.max_depth);
+  if (!ps->bvh_links.empty()) {
+    twinray::bvh::Stats st = twinray::bvh::wide_stats(ps->bvh_links, ps->bvh_width);
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  ": BVH%d %d nodes, %d leaves (%.2f primitives each, at most %d), depth %d",
+                  ps->bvh_width, st.nodes, st.leaves, double(ps->bvh_prims.size()) / st.leaves,
+                  st.max_leaf, st.max_depth);
     config.note(b.name + " " + row.precision + buf);
   }
 
   const twinray::RenderRequest<T> request{b.camera, b.scene.lights, options, {}};
-  std::unique_ptr<twinray::RenderBackend<T>> renderer = twinray::make_backend<T>(options);
   renderer->set_scene(ps);
   twinray::RenderInfo info;
   auto w0 = std::chrono::steady_clock::now();

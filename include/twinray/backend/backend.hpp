@@ -9,7 +9,7 @@
 // re-uploads nothing of the scene.
 //
 //   auto backend = twinray::make_backend<float>(options);
-//   backend->set_scene(twinray::share(twinray::pack_scene(scene)));
+//   backend->set_scene(twinray::share(twinray::pack_scene(scene, backend->pack_options())));
 //   for (int frame = 0; frame < 100; ++frame) {
 //     camera.position = orbit(frame);
 //     twinray::Image<float> image = backend->render({camera, scene.lights, options});
@@ -44,6 +44,10 @@ class RenderBackend {
   // Which backend this is (Cpu or OpenCL) and the device it runs on.
   virtual Backend kind() const = 0;
   virtual std::string device_name() const = 0;
+
+  // How to pack a scene for this backend: the BVH width measured fastest on it. Any
+  // packed scene renders to the same bits on any backend; this is speed only.
+  virtual PackOptions pack_options() const { return PackOptions{}; }
 
   // The scene to render from now on. The backend keeps the pointer (the CPU reads the
   // arrays in place) or uploads the arrays at the next render and lets it go (OpenCL).

@@ -149,12 +149,12 @@ std::unique_ptr<RenderBackend<T>> make_backend(const RenderOptions& options) {
 template <class T>
 Image<T> render(const Scene<T>& scene, const Camera<T>& camera, const RenderOptions& options,
                 RenderInfo* info = nullptr) {
-  const auto t0 = std::chrono::steady_clock::now();
   validate(camera);
   validate(options);
-  auto packed = share(pack_scene(scene));
-  const double pack_ms = sample_plan::ms_since(t0);
   std::unique_ptr<RenderBackend<T>> backend = make_backend<T>(options);
+  const auto t0 = std::chrono::steady_clock::now();
+  auto packed = share(pack_scene(scene, backend->pack_options()));
+  const double pack_ms = sample_plan::ms_since(t0);
   backend->set_scene(std::move(packed));
   Image<T> image = backend->render({camera, scene.lights, options, {}}, info);
   if (info) info->pack_ms = pack_ms;

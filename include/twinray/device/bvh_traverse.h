@@ -1,10 +1,17 @@
-/* Iterative BVH traversal with a small fixed stack (no recursion: OpenCL C has none).
- * Nodes are flat and index-based (types.h TrBvhNode), so the same walk runs on both
- * sides and visits the same nodes in the same order. Box test: the slab method with
- * the far distances scaled by 1 + 2 gamma(3), so rounding never culls a box the ray
- * touches (pbrt-v4 Bounds3::IntersectP). */
+/* Iterative traversal of the W-wide BVH (types.h: bvh_boxes, bvh_links) with a small
+ * fixed stack (no recursion: OpenCL C has none). The one walk serves W = 2, 4 and 8: W
+ * is an argument that every caller passes as a constant to an always-inlined body, so
+ * each width is compiled with a fixed trip count for its box loop, which g++
+ * vectorizes and PoCL compiles from the same text. Box test: the slab method with the
+ * far distances scaled by 1 + 2 gamma(3), so rounding never culls a box the ray
+ * touches (pbrt-v4 Bounds3::IntersectP, folded into the reciprocal as Ize 2013). */
 
-#define TR_BVH_STACK_SIZE 64
+/* Leaf depth cap of the binary tree the wide one is collapsed from (pack/bvh.hpp), and
+ * the stack that cap implies. A W-wide node (W = 2^L) stands for L levels of the binary
+ * tree, so a path holds at most floor((48 - 1) / L) + 1 inner wide nodes, and each
+ * pushes at most W - 1 children: 48 entries at W = 2, 72 at 4, 112 at 8. */
+#define TR_BVH_MAX_DEPTH 48
+#define TR_BVH_STACK_SIZE 112
 
 /* BVH primitive ids: spheres first, then triangles. Only the distance: see TrNearest. */
 TR_FN_INLINE real tr_primitive_t(const TrSceneRef* s, int prim, TrRay ray,
@@ -42,63 +49,92 @@ TR_FN_INLINE TrBoxRay tr_box_ray(TrRay ray) {
   return br;
 }
 
-/* Slab test of one box; on a hit, *t_entry is where the ray enters it (0 if it starts
- * inside). The near and far planes of each slab are chosen by the sign of the inverse
- * direction, once per ray (Williams, Barrus, Morley, Shirley, "An Efficient and Robust
- * Ray-Box Intersection Algorithm", JGT 2005), so there is no swap and no branch.
- * Rounding must never cull a box that holds a primitive the primitive tests would
- * report: the far distances are grown by 1 + 2 gamma(3), the bound pbrt-v4's
- * Bounds3::IntersectP applies to each far distance, but folded into a padded reciprocal
- * computed once per ray, as Ize does ("Robust BVH Ray Traversal", JCGT 2(2), 2013):
- * the same four roundings, one multiplication fewer per slab. The ray's own end,
- * tmax_grown, is grown by the caller, and the builder pads every box (pack/bvh.hpp). A
- * slab distance that is NaN (0 * inf: the origin on a face of a box the ray runs
- * parallel to) fails its compare below and narrows nothing. */
-TR_FN_INLINE int tr_ray_hits_box(TR_GLOBAL const TrBvhNode* node, const TrBoxRay* br,
-                                 real tmax_grown, real* t_entry) {
-  real near_x = (node->bounds[br->near_x] - br->o.x) * br->inv_d.x;
-  real near_y = (node->bounds[br->near_y] - br->o.y) * br->inv_d.y;
-  real near_z = (node->bounds[br->near_z] - br->o.z) * br->inv_d.z;
-  real far_x = (node->bounds[br->far_x] - br->o.x) * br->inv_d_far.x;
-  real far_y = (node->bounds[br->far_y] - br->o.y) * br->inv_d_far.y;
-  real far_z = (node->bounds[br->far_z] - br->o.z) * br->inv_d_far.z;
-  real t0 = TR_R(0.0), t1 = tmax_grown;
-  t0 = near_x > t0 ? near_x : t0;
-  t0 = near_y > t0 ? near_y : t0;
-  t0 = near_z > t0 ? near_z : t0;
-  t1 = far_x < t1 ? far_x : t1;
-  t1 = far_y < t1 ? far_y : t1;
-  t1 = far_z < t1 ? far_z : t1;
-  *t_entry = t0;
-  return t0 <= t1;
+/* The slab test of one wide node's W boxes (the Williams et al. 2005 slab method; see
+ * tr_box_ray): t_entry[k] is where the ray enters child k's box (0 if it starts inside),
+ * and bit k of the result says whether it does so before tmax_grown. The near and far
+ * planes of each slab were chosen by the signs of the direction once per ray, so the
+ * loop reads six rows of W contiguous values and has no branch: it vectorizes. A slab
+ * distance that is NaN (0 * inf: the origin on a face of a box the ray runs parallel
+ * to) fails its compare and narrows nothing. Rounding must never cull a box that holds
+ * a primitive the primitive tests would report: the far distances use the padded
+ * reciprocal, the caller grows tmax, and the builder pads every box (pack/bvh.hpp). */
+TR_FN_INLINE unsigned tr_ray_hits_boxes(TR_GLOBAL const real* boxes, const TrBoxRay* br,
+                                        real tmax_grown, int W, real* t_entry) {
+  TR_GLOBAL const real* near_x = boxes + br->near_x * W;
+  TR_GLOBAL const real* near_y = boxes + br->near_y * W;
+  TR_GLOBAL const real* near_z = boxes + br->near_z * W;
+  TR_GLOBAL const real* far_x = boxes + br->far_x * W;
+  TR_GLOBAL const real* far_y = boxes + br->far_y * W;
+  TR_GLOBAL const real* far_z = boxes + br->far_z * W;
+  int hit[TR_BVH_MAX_WIDTH];
+  TR_SIMD_LOOP
+  for (int k = 0; k < W; ++k) {
+    real nx = (near_x[k] - br->o.x) * br->inv_d.x;
+    real ny = (near_y[k] - br->o.y) * br->inv_d.y;
+    real nz = (near_z[k] - br->o.z) * br->inv_d.z;
+    real fx = (far_x[k] - br->o.x) * br->inv_d_far.x;
+    real fy = (far_y[k] - br->o.y) * br->inv_d_far.y;
+    real fz = (far_z[k] - br->o.z) * br->inv_d_far.z;
+    real t0 = TR_R(0.0), t1 = tmax_grown;
+    t0 = nx > t0 ? nx : t0;
+    t0 = ny > t0 ? ny : t0;
+    t0 = nz > t0 ? nz : t0;
+    t1 = fx < t1 ? fx : t1;
+    t1 = fy < t1 ? fy : t1;
+    t1 = fz < t1 ? fz : t1;
+    t_entry[k] = t0;
+    hit[k] = t0 <= t1;
+  }
+  unsigned mask = 0u;
+  for (int k = 0; k < W; ++k) mask |= (unsigned)hit[k] << k;
+  return mask;
 }
 
-/* Walks the BVH. Closest hit (any_hit = 0): offers every primitive in the leaves it
- * reaches to *nearest and returns whether there is one. Any hit: returns 1 at the first
- * primitive in (0, nearest->t), computing nothing else.
- * At an inner node both children's boxes are tested: the walk goes on into the one the
- * ray enters first and pushes the other with its entry distance, which is checked
- * again when it is popped, against the nearest hit found by then (a box entered beyond
- * it cannot hold a nearer hit; one entered at exactly that distance can hold a tie,
- * and is kept). The stack holds at most one entry per level, and the builder caps the
- * depth (pack/bvh.hpp kMaxDepth < TR_BVH_STACK_SIZE), so it never overflows. */
-TR_FN int tr_bvh_walk(const TrSceneRef* s, TrRay ray, TrNearest* nearest, int any_hit) {
+/* Walks the W-wide BVH. Closest hit (any_hit = 0): offers every primitive in the leaves
+ * it reaches to *nearest and returns whether there is one. Any hit: returns 1 at the
+ * first primitive in (0, nearest->t), computing nothing else.
+ * At a node, all W boxes are tested at once; the children the ray enters are then
+ * taken from the bit mask, so the work grows with the children hit, not with W. Leaves
+ * are tested on the spot (which shortens nearest->t before the inner children are
+ * weighed); inner children entered before the nearest hit so far are sorted by entry
+ * distance: the walk goes on into the nearest and pushes the others, farthest first. A
+ * popped entry is checked again against the nearest hit found by then (a box entered
+ * beyond it cannot hold a nearer hit; one entered at exactly that distance can hold a
+ * tie, and is kept). Any order would give the same result (tr_offer_hit); nearest first
+ * only saves work. Stack: at most W - 1 entries per inner node on the path
+ * (TR_BVH_STACK_SIZE). The triangle test's view of the ray is made at the first leaf:
+ * many rays miss every box. */
+TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nearest, int any_hit,
+                                  int W) {
   if (s->params->n_bvh_nodes <= 0) return 0;
   TrBoxRay box_ray = tr_box_ray(ray);
+  TrTriangleRay tri_ray;
+  int have_tri_ray = 0;
   real grow = TR_R(1.0) + TR_R(2.0) * tr_gamma(3);
   int stack_node[TR_BVH_STACK_SIZE];
   real stack_t[TR_BVH_STACK_SIZE];
   int top = 0;
-  real t_root;
-  if (!tr_ray_hits_box(&s->bvh_nodes[0], &box_ray, nearest->t * grow, &t_root)) return 0;
-  TrTriangleRay tri_ray = tr_triangle_ray(ray);
   int index = 0;
   for (;;) {
-    TR_GLOBAL const TrBvhNode* node = &s->bvh_nodes[index];
-    int next = -1;
-    if (node->count > 0) {
-      for (int i = 0; i < node->count; ++i) {
-        int prim = s->bvh_prims[node->first + i];
+    TR_GLOBAL const int* first = s->bvh_links + index * 2 * W;
+    TR_GLOBAL const int* count = first + W;
+    real t_entry[TR_BVH_MAX_WIDTH];
+    unsigned mask =
+        tr_ray_hits_boxes(s->bvh_boxes + index * 6 * W, &box_ray, nearest->t * grow, W, t_entry);
+    unsigned inner = 0u;
+    while (mask != 0u) {
+      int k = TR_LOWEST_BIT(mask);
+      mask &= mask - 1u;
+      if (count[k] <= 0) {
+        inner |= count[k] == 0 ? 1u << k : 0u;
+        continue;
+      }
+      if (!have_tri_ray) {
+        tri_ray = tr_triangle_ray(ray);
+        have_tri_ray = 1;
+      }
+      for (int i = first[k]; i < first[k] + count[k]; ++i) {
+        int prim = s->bvh_prims[i];
         real t = tr_primitive_t(s, prim, ray, &tri_ray);
         if (any_hit) {
           if (t > TR_R(0.0) && t < nearest->t) return 1;
@@ -106,25 +142,36 @@ TR_FN int tr_bvh_walk(const TrSceneRef* s, TrRay ray, TrNearest* nearest, int an
           tr_offer_hit(nearest, t, prim);
         }
       }
-    } else {
-      int left = node->first;
-      real t_left, t_right;
-      real tmax_grown = nearest->t * grow;
-      int hit_left = tr_ray_hits_box(&s->bvh_nodes[left], &box_ray, tmax_grown, &t_left);
-      int hit_right = tr_ray_hits_box(&s->bvh_nodes[left + 1], &box_ray, tmax_grown, &t_right);
-      if (hit_left && hit_right) {
-        int right_first = t_right < t_left;
+    }
+    /* The inner children worth visiting, by increasing entry distance (insertion sort
+     * into a list of at most W). */
+    real tmax_grown = nearest->t * grow;
+    int n_inner = 0;
+    int inner_node[TR_BVH_MAX_WIDTH];
+    real inner_t[TR_BVH_MAX_WIDTH];
+    while (inner != 0u) {
+      int k = TR_LOWEST_BIT(inner);
+      inner &= inner - 1u;
+      real t = t_entry[k];
+      if (t > tmax_grown) continue;
+      int j = n_inner++;
+      for (; j > 0 && inner_t[j - 1] > t; --j) {
+        inner_t[j] = inner_t[j - 1];
+        inner_node[j] = inner_node[j - 1];
+      }
+      inner_t[j] = t;
+      inner_node[j] = first[k];
+    }
+    int next = -1;
+    if (n_inner > 0) {
+      for (int j = n_inner - 1; j > 0; --j) {
         if (top < TR_BVH_STACK_SIZE) {
-          stack_node[top] = right_first ? left : left + 1;
-          stack_t[top] = right_first ? t_left : t_right;
+          stack_node[top] = inner_node[j];
+          stack_t[top] = inner_t[j];
           ++top;
         }
-        next = right_first ? left + 1 : left;
-      } else if (hit_left) {
-        next = left;
-      } else if (hit_right) {
-        next = left + 1;
       }
+      next = inner_node[0];
     }
     while (next < 0 && top > 0) {
       --top;
@@ -134,4 +181,20 @@ TR_FN int tr_bvh_walk(const TrSceneRef* s, TrRay ray, TrNearest* nearest, int an
     index = next;
   }
   return any_hit ? 0 : nearest->prim >= 0;
+}
+
+/* The walks for the width the scene's BVH was built with, closest hit and any hit each
+ * compiled on its own. Each width is compiled only where the Features mask holds its
+ * bit. */
+TR_FN int tr_bvh_closest(const TrSceneRef* s, TrRay ray, TrNearest* nearest) {
+  if (tr_use(s, TR_F_BVH8)) return tr_bvh_walk_wide(s, ray, nearest, 0, 8);
+  if (tr_use(s, TR_F_BVH4)) return tr_bvh_walk_wide(s, ray, nearest, 0, 4);
+  if (tr_use(s, TR_F_BVH2)) return tr_bvh_walk_wide(s, ray, nearest, 0, 2);
+  return 0;
+}
+TR_FN int tr_bvh_any(const TrSceneRef* s, TrRay ray, TrNearest* limit) {
+  if (tr_use(s, TR_F_BVH8)) return tr_bvh_walk_wide(s, ray, limit, 1, 8);
+  if (tr_use(s, TR_F_BVH4)) return tr_bvh_walk_wide(s, ray, limit, 1, 4);
+  if (tr_use(s, TR_F_BVH2)) return tr_bvh_walk_wide(s, ray, limit, 1, 2);
+  return 0;
 }

@@ -1,5 +1,5 @@
-/* Camera ray through a sample position of a pixel (the original assignment's camera): the host has set up
- * the view plane (first pixel center, one-pixel steps du and dv, row 0 at the top).
+/* Camera ray through a sample position of a pixel (the original assignment's camera): the host has
+ * set up the view plane (first pixel center, one-pixel steps du and dv, row 0 at the top).
  * Perspective: from the camera position toward the sample. Orthographic: along -W
  * from the sample on the view plane. */
 

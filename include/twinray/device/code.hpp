@@ -52,7 +52,6 @@ static_assert(sizeof(f32::TrTriangleAttr) == 68 && sizeof(f64::TrTriangleAttr) =
               "TrTriangleAttr layout");
 static_assert(sizeof(f32::TrTexture) == 16 && sizeof(f64::TrTexture) == 16, "TrTexture layout");
 static_assert(sizeof(f32::TrLight) == 24 && sizeof(f64::TrLight) == 48, "TrLight layout");
-static_assert(sizeof(f32::TrBvhNode) == 32 && sizeof(f64::TrBvhNode) == 56, "TrBvhNode layout");
 static_assert(sizeof(f32::TrParams) == 76 + 88 && sizeof(f64::TrParams) == 152 + 88,
               "TrParams layout");
 
@@ -69,7 +68,6 @@ struct Code<float> {
   using TriangleAttr = f32::TrTriangleAttr;
   using Texture = f32::TrTexture;
   using Light = f32::TrLight;
-  using BvhNode = f32::TrBvhNode;
   using Params = f32::TrParams;
   using SceneRef = f32::TrSceneRef;
   using Ray = f32::TrRay;
@@ -89,7 +87,6 @@ struct Code<double> {
   using TriangleAttr = f64::TrTriangleAttr;
   using Texture = f64::TrTexture;
   using Light = f64::TrLight;
-  using BvhNode = f64::TrBvhNode;
   using Params = f64::TrParams;
   using SceneRef = f64::TrSceneRef;
   using Ray = f64::TrRay;

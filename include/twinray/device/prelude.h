@@ -14,6 +14,12 @@
  *   TR_GLOBAL           address space of pointers into scene buffers
  *   TR_HAS(bit)         compile-time test of the Features mask (TR_FEATURES)
  *   TR_COUNT_RAY()      counts a ray query in benchmark builds (host only; else nothing)
+ *   TR_SIMD_LOOP        before a loop over the lanes of a wide node: keeps g++ from
+ *                       unrolling a short constant-trip loop into scalar code before its
+ *                       vectorizer sees it (the 4-wide box loop stayed scalar); nothing
+ *                       elsewhere
+ *   TR_LOWEST_BIT(m)    index of the lowest set bit of a nonzero unsigned int (an
+ *                       integer builtin on both sides: exact, so parity is not at stake)
  *
  * On the device, TR_FEATURES and TR_DOUBLE arrive as -D build options. On the host,
  * include/twinray/device/code.hpp includes the function headers inside
@@ -47,6 +53,8 @@ typedef float3 vec3;
 #define TR_COUNT_RAY() \
   do {                 \
   } while (0)
+#define TR_LOWEST_BIT(m) (31 - (int)clz((m) & (0u - (m))))
+#define TR_SIMD_LOOP
 #ifndef TR_FEATURES
 #error "TR_FEATURES (the Features mask) must be passed as a build option"
 #endif
@@ -63,6 +71,25 @@ typedef float3 vec3;
 #endif
 #define TR_GLOBAL
 #define TR_VEC3(x, y, z) vec3((x), (y), (z))
+#if defined(__GNUC__) && !defined(__clang__)
+#define TR_SIMD_LOOP _Pragma("GCC unroll 1")
+#else
+#define TR_SIMD_LOOP
+#endif
+#if defined(__GNUC__) || defined(__clang__)
+#define TR_LOWEST_BIT(m) __builtin_ctz(m)
+#else
+namespace twinray {
+namespace device {
+inline int lowest_bit(unsigned m) {
+  int i = 0;
+  for (; !(m & 1u); m >>= 1) ++i;
+  return i;
+}
+}  // namespace device
+}  // namespace twinray
+#define TR_LOWEST_BIT(m) ::twinray::device::lowest_bit(m)
+#endif
 namespace twinray {
 namespace device {
 /* Ray queries of this thread in instantiations with TR_F_COUNT_RAYS (bench/). */

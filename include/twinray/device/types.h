@@ -58,17 +58,19 @@ typedef struct TrLight {
   real px, py, pz, r, g, b;
 } TrLight;
 
-/* Flattened BVH node. bounds: min x, y, z, then max x, y, z (an array, so the walk
- * can pick a slab's near and far plane by index, bvh_traverse.h). A leaf has
- * count > 0 primitives starting at `first` in the primitive index array; an inner
- * node has count = -axis (0, -1 or -2, its split axis) and its children at `first`
- * (lower along the axis) and `first + 1`. */
+/* The BVH, W children per node (W = 2, 4 or 8: the TR_F_BVH2/4/8 bit of the scene),
+ * as two flat arrays indexed by node. No struct: its size would depend on W.
+ *  - bvh_boxes, 6 W reals per node: the children's boxes as structure of arrays, plane
+ *    by plane (min x of the W children, then min y, min z, max x, max y, max z), so the
+ *    walk tests all W boxes with one loop over contiguous values (bvh_traverse.h);
+ *  - bvh_links, 2 W ints per node: first[W], then count[W]. Child k is a leaf when
+ *    count[k] > 0 (primitives bvh_prims[first[k] .. first[k] + count[k])), an inner
+ *    node when count[k] == 0 (node first[k]) and an empty slot when count[k] < 0; an
+ *    empty slot's box is empty (min +inf, max -inf), so no ray enters it.
+ * Node 0 is the root. */
 #define TR_BVH_MIN_X 0
 #define TR_BVH_MAX_X 3
-typedef struct TrBvhNode {
-  real bounds[6];
-  int first, count;
-} TrBvhNode;
+#define TR_BVH_MAX_WIDTH 8
 
 /* A ray as the box test wants it: 1/d, 1/d padded for the far planes (bvh_traverse.h),
  * and per axis the index into bounds of the plane it meets first (the max plane where
@@ -111,7 +113,8 @@ typedef struct TrSceneRef {
   TR_GLOBAL const TrPlane* planes;
   TR_GLOBAL const TrMaterial* materials;
   TR_GLOBAL const TrLight* lights;
-  TR_GLOBAL const TrBvhNode* bvh_nodes;
+  TR_GLOBAL const real* bvh_boxes;
+  TR_GLOBAL const int* bvh_links;
   TR_GLOBAL const int* bvh_prims;
   TR_GLOBAL const TrTriangleAttr* triangle_attrs;
   TR_GLOBAL const TrTexture* textures;

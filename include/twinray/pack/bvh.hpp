@@ -1,19 +1,27 @@
 // The BVH over a packed scene's spheres and triangles (planes are unbounded and stay
-// outside it): a binned-SAH build (Wald, "On fast Construction of SAH-based Bounding
-// Volume Hierarchies", 2007; pbrt-v4 BVHAggregate), flattened into the index-based
-// TrBvhNode array that device/bvh_traverse.h walks on both backends.
+// outside it): a binned-SAH build of a binary tree (Wald, "On fast Construction of
+// SAH-based Bounding Volume Hierarchies", 2007; pbrt-v4 BVHAggregate), collapsed into
+// the W-wide node arrays (W = 2, 4 or 8) that device/bvh_traverse.h walks on both
+// backends.
 //
-// Layout (device/types.h TrBvhNode): node 0 is the root; an inner node's two children
-// are adjacent at `first` (lower along its split axis) and `first + 1`; a leaf's
+// Layout (device/types.h, "The BVH"): node 0 is the root; each node holds its W
+// children's boxes as structure of arrays and a (first, count) link per child; a leaf's
 // primitives are bvh_prims[first .. first + count). Primitive ids: spheres first
 // (0 .. n_spheres - 1), then triangles. build() returns the nodes and the order of the
 // primitives in the leaves; pack() reorders the scene's arrays by it.
 //
+// Collapse: a W-wide node (W = 2^L) takes the binary nodes L levels below the binary
+// node it stands for (leaves met on the way stay leaves), as the fixed-level collapse
+// in Wald, Benthin, Boulos, "Getting Rid of Packets: Efficient SIMD Single-Ray
+// Traversal using Multi-branching BVHs" (RT 2008) does for 4-wide trees. The SAH tree
+// is already balanced where it matters, so nodes come out nearly full, and every path
+// descends L binary levels per wide node, which bounds the traversal's stack
+// (device/bvh_traverse.h TR_BVH_STACK_SIZE).
+//
 // Guarantees the traversal relies on:
-//  - depth: no leaf is deeper than kMaxDepth, so the traversal's stack of
-//    TR_BVH_STACK_SIZE entries never overflows (it holds one entry per level at most);
-//    near the cap the builder switches to median splits, which halve the count, and it
-//    starts doing so early enough to end every branch in small leaves;
+//  - depth: no binary leaf is deeper than kMaxDepth, so the traversal's stack never
+//    overflows; near the cap the builder switches to median splits, which halve the
+//    count, and it starts doing so early enough to end every branch in small leaves;
 //  - bounds: every box contains what it bounds with a margin, rounded outward to the
 //    scene's precision, so rounding in the primitive tests never makes a primitive
 //    report a hit through a box the ray misses.
@@ -52,10 +60,10 @@ inline bool worth_building(long long n_spheres, long long n_triangles) {
   return n_spheres + kTriangleWeight * n_triangles >= kMinWeight;
 }
 
-constexpr int kMaxDepth = 48;        // leaf depth cap; TR_BVH_STACK_SIZE >= kMaxDepth + 1
-constexpr int kMaxLeafSize = 8;      // SAH leaves hold at most this many primitives
-constexpr int kBins = 16;            // SAH bins per axis
-constexpr int kAllAxesBelow = 4096;  // larger nodes bin along their widest axis only
+constexpr int kMaxDepth = TR_BVH_MAX_DEPTH;  // leaf depth cap of the binary tree
+constexpr int kMaxLeafSize = 8;              // SAH leaves hold at most this many primitives
+constexpr int kBins = 16;                    // SAH bins per axis
+constexpr int kAllAxesBelow = 4096;          // larger nodes bin along their widest axis only
 // SAH cost of visiting an inner node, relative to one primitive test: the walk tests
 // both children's boxes there, each about as dear as a sphere test. At 1 the builder
 // split down to 1.19 spheres per leaf (1.7M nodes for 1e6 spheres); at 2 leaves hold
@@ -65,7 +73,31 @@ constexpr int kAllAxesBelow = 4096;  // larger nodes bin along their widest axis
 constexpr double kTraversalCost = 2.0;
 constexpr int kParallelMinPrims = 16384;  // smaller subtrees are built on the calling thread
 
-static_assert(TR_BVH_STACK_SIZE >= kMaxDepth + 1, "BVH depth cap exceeds the traversal stack");
+// The widths a BVH can have, and the fastest on each backend (measured with
+// bench/twinray_bench.cpp --bvh-width, docs/performance.md "BVH width").
+constexpr int kWidths[] = {2, 4, 8};
+constexpr int kCpuWidth = 8;
+constexpr int kOpenClWidth = 8;
+
+constexpr bool valid_width(int w) {
+  return w == 2 || w == 4 || w == 8;
+}
+constexpr int log2_width(int w) {
+  return w == 8 ? 3 : w == 4 ? 2 : 1;
+}
+// The feature bit of a width (device/features.h).
+constexpr unsigned width_feature(int w) {
+  return w == 8 ? TR_F_BVH8 : w == 4 ? TR_F_BVH4 : TR_F_BVH2;
+}
+// The traversal's stack bound: W - 1 entries per inner wide node on a path, and a path
+// holds at most floor((kMaxDepth - 1) / L) + 1 of them (see the collapse above).
+constexpr int stack_needed(int w) {
+  return (w - 1) * ((kMaxDepth - 1) / log2_width(w) + 1);
+}
+static_assert(stack_needed(2) <= TR_BVH_STACK_SIZE && stack_needed(4) <= TR_BVH_STACK_SIZE &&
+                  stack_needed(8) <= TR_BVH_STACK_SIZE,
+              "BVH depth cap exceeds the traversal stack");
+static_assert(TR_BVH_MAX_WIDTH == 8, "the walk's per-node arrays hold the widest node");
 
 // An axis-aligned box. The builder keeps primitives' boxes in the scene's precision
 // (R = T), rounded outward, so a million float primitives stream through each level of
@@ -122,6 +154,17 @@ R round_up(double v) {
   return static_cast<double>(r) < v ? std::nextafter(r, std::numeric_limits<R>::infinity()) : r;
 }
 
+// A node of the binary tree the builder makes before the collapse: bounds min x, y, z,
+// max x, y, z; a leaf has count > 0 primitives from `first`, an inner node count = 0
+// and its children at first and first + 1.
+template <class R>
+struct BinaryNode {
+  R bounds[6];
+  int first, count;
+};
+
+// Node and leaf counts, the most primitives in a leaf, and the deepest path in inner
+// nodes (the root counts 1): at most W - 1 stack entries each.
 struct Stats {
   int nodes = 0, leaves = 0, max_depth = 0, max_leaf = 0;
 };
@@ -157,7 +200,7 @@ struct Builder {
     int n = end - begin;
     set_box(nodes[self], box);
 
-    int mid = -1, axis = 0;
+    int mid = -1;
     Box child_box[2], child_cbox[2];
     // Levels left below this node if every further split halves the count.
     int halvings = 0;
@@ -166,9 +209,9 @@ struct Builder {
     if (n <= 1) {
       mid = -1;
     } else if (near_cap) {
-      mid = n <= kMaxLeafSize ? -1 : median_split(begin, end, cbox, &axis, child_box, child_cbox);
+      mid = n <= kMaxLeafSize ? -1 : median_split(begin, end, cbox, child_box, child_cbox);
     } else {
-      mid = sah_split(begin, end, box, cbox, &axis, child_box, child_cbox);
+      mid = sah_split(begin, end, box, cbox, child_box, child_cbox);
     }
     if (mid < 0 || depth >= kMaxDepth) {
       make_leaf(nodes[self], begin, n);
@@ -177,7 +220,7 @@ struct Builder {
 
     int first = static_cast<int>(nodes.size());
     nodes[self].first = first;
-    nodes[self].count = -axis;
+    nodes[self].count = 0;
     nodes.emplace_back();
     nodes.emplace_back();
     bool parallel = std::min(mid - begin, end - mid) >= kParallelMinPrims && take_thread();
@@ -243,8 +286,7 @@ struct Builder {
 
   // Splits at the median centroid along the widest centroid axis (ties by id, so the
   // result is deterministic); lower half first.
-  int median_split(int begin, int end, const Box& cbox, int* axis, Box child_box[2],
-                   Box child_cbox[2]) {
+  int median_split(int begin, int end, const Box& cbox, Box child_box[2], Box child_cbox[2]) {
     int a = widest_axis(cbox);
     int mid = begin + (end - begin) / 2;
     std::nth_element(refs.begin() + begin, refs.begin() + mid, refs.begin() + end,
@@ -252,7 +294,6 @@ struct Builder {
                        double cx = x.centroid(a), cy = y.centroid(a);
                        return cx < cy || (cx == cy && x.id < y.id);
                      });
-    *axis = a;
     bounds_of(refs, begin, mid, &child_box[0], &child_cbox[0]);
     bounds_of(refs, mid, end, &child_box[1], &child_cbox[1]);
     return mid;
@@ -261,7 +302,7 @@ struct Builder {
   // Binned SAH over all three axes. Returns the split position, or -1 for "make a
   // leaf" (allowed only at kMaxLeafSize primitives or fewer); on a split, the
   // children's bounds and centroid bounds.
-  int sah_split(int begin, int end, const Box& box, const Box& cbox, int* axis, Box child_box[2],
+  int sah_split(int begin, int end, const Box& box, const Box& cbox, Box child_box[2],
                 Box child_cbox[2]) {
     int n = end - begin;
     struct Bin {
@@ -340,7 +381,7 @@ struct Builder {
     if (best_axis < 0) {
       // All centroids coincide: no SAH split separates them.
       if (n <= kMaxLeafSize) return -1;
-      return median_split(begin, end, cbox, axis, child_box, child_cbox);
+      return median_split(begin, end, cbox, child_box, child_cbox);
     }
     double split_cost = kTraversalCost + (area > 0 ? best_cost / area : static_cast<double>(n));
     if (n <= kMaxLeafSize && leaf_cost <= split_cost) return -1;
@@ -365,31 +406,43 @@ struct Builder {
       refs[static_cast<size_t>(k)].centroid(c);
       child_cbox[k < i ? 0 : 1].grow(c);
     }
-    *axis = a;
     return i;
   }
 };
 
 }  // namespace detail
 
-// A built BVH: the nodes, and the primitive ids in leaf order (order[i] is the id of
-// the i-th primitive the leaves list: spheres first, 0 .. n_spheres - 1, then
-// triangles). pack() reorders the scene's arrays by it (pack/pack.hpp).
+// The binary tree as the builder makes it, and the primitive ids in leaf order
+// (order[i] is the id of the i-th primitive the leaves list: spheres first,
+// 0 .. n_spheres - 1, then triangles).
 template <class T>
-struct Bvh {
-  std::vector<typename device::Code<T>::BvhNode> nodes;
+struct BinaryBvh {
+  std::vector<BinaryNode<T>> nodes;
   std::vector<int> order;
 };
 
-// Builds the BVH of these spheres and triangles; touches nothing else. Runs on the
-// threads of parallel_for (core/parallel.hpp); the result does not depend on how many.
+// A built BVH as the device code reads it (device/types.h, "The BVH"): `width`
+// children per node, boxes and links node by node, and the leaf order of the
+// primitives, by which pack() reorders the scene's arrays (pack/pack.hpp).
 template <class T>
-Bvh<T> build(const std::vector<typename device::Code<T>::Sphere>& spheres,
-             const std::vector<typename device::Code<T>::Triangle>& triangles) {
-  using Node = typename device::Code<T>::BvhNode;
+struct Bvh {
+  int width = 0;
+  std::vector<T> boxes;    // 6 * width per node
+  std::vector<int> links;  // 2 * width per node: first[width], count[width]
+  std::vector<int> order;
+  int node_count() const { return width > 0 ? static_cast<int>(links.size()) / (2 * width) : 0; }
+};
+
+// Builds the binary SAH tree of these spheres and triangles; touches nothing else.
+// Runs on the threads of parallel_for (core/parallel.hpp); the result does not depend
+// on how many.
+template <class T>
+BinaryBvh<T> build_binary(const std::vector<typename device::Code<T>::Sphere>& spheres,
+                          const std::vector<typename device::Code<T>::Triangle>& triangles) {
+  using Node = BinaryNode<T>;
   const int n_spheres = static_cast<int>(spheres.size());
   const int n = n_spheres + static_cast<int>(triangles.size());
-  Bvh<T> bvh;
+  BinaryBvh<T> bvh;
   if (n == 0) return bvh;
   std::vector<PrimRef<T>> refs(static_cast<size_t>(n));
   parallel_for(n, 4096, [&](int i) {
@@ -424,9 +477,85 @@ Bvh<T> build(const std::vector<typename device::Code<T>::Sphere>& spheres,
   return bvh;
 }
 
-// Depth, node and leaf counts (for tests and benchmarks).
-template <class Node>
-Stats stats(const std::vector<Node>& nodes) {
+namespace detail {
+
+// Writes the wide node for binary node b (see the collapse at the top of this file) and,
+// depth first, the nodes below it; returns its index. Recursion depth is bounded by
+// kMaxDepth / L.
+template <class T>
+int collapse_node(const std::vector<BinaryNode<T>>& binary, int b, Bvh<T>& out) {
+  const int w = out.width;
+  const int self = out.node_count();
+  out.boxes.resize(out.boxes.size() + static_cast<size_t>(6 * w));
+  out.links.resize(out.links.size() + static_cast<size_t>(2 * w));
+  int children[TR_BVH_MAX_WIDTH] = {b};
+  int n = 1;
+  for (int level = 0; level < log2_width(w); ++level) {
+    int next[TR_BVH_MAX_WIDTH], m = 0;
+    for (int i = 0; i < n; ++i) {
+      const BinaryNode<T>& node = binary[static_cast<size_t>(children[i])];
+      if (node.count > 0) {
+        next[m++] = children[i];
+      } else {
+        next[m++] = node.first;
+        next[m++] = node.first + 1;
+      }
+    }
+    std::copy(next, next + m, children);
+    n = m;
+  }
+  for (int k = 0; k < w; ++k) {
+    T* box = out.boxes.data() + static_cast<size_t>(self) * 6 * w;
+    int* link = out.links.data() + static_cast<size_t>(self) * 2 * w;
+    if (k >= n) {  // empty slot: a box no ray enters
+      for (int a = 0; a < 3; ++a) {
+        box[(TR_BVH_MIN_X + a) * w + k] = std::numeric_limits<T>::infinity();
+        box[(TR_BVH_MAX_X + a) * w + k] = -std::numeric_limits<T>::infinity();
+      }
+      link[k] = 0;
+      link[w + k] = -1;
+      continue;
+    }
+    const BinaryNode<T>& child = binary[static_cast<size_t>(children[k])];
+    for (int plane = 0; plane < 6; ++plane) box[plane * w + k] = child.bounds[plane];
+    link[w + k] = child.count;
+    // The recursion grows the arrays: write the link through a fresh pointer after it.
+    const int first = child.count > 0 ? child.first : collapse_node(binary, children[k], out);
+    out.links[static_cast<size_t>(self) * 2 * w + static_cast<size_t>(k)] = first;
+  }
+  return self;
+}
+
+}  // namespace detail
+
+// The binary tree's nodes collapsed into `width`-wide nodes (2, 4 or 8); the order is
+// left to the caller.
+template <class T>
+Bvh<T> collapse(const BinaryBvh<T>& binary, int width) {
+  Bvh<T> out;
+  out.width = width;
+  if (binary.nodes.empty()) return out;
+  // About (inner binary nodes) / (width - 1) wide nodes.
+  const size_t estimate = binary.nodes.size() / 2 / static_cast<size_t>(width - 1) + 1;
+  out.boxes.reserve(estimate * 6 * static_cast<size_t>(width));
+  out.links.reserve(estimate * 2 * static_cast<size_t>(width));
+  detail::collapse_node(binary.nodes, 0, out);
+  return out;
+}
+
+// Builds the `width`-wide BVH of these spheres and triangles (build_binary, collapse).
+template <class T>
+Bvh<T> build(const std::vector<typename device::Code<T>::Sphere>& spheres,
+             const std::vector<typename device::Code<T>::Triangle>& triangles, int width) {
+  BinaryBvh<T> binary = build_binary<T>(spheres, triangles);
+  Bvh<T> bvh = collapse(binary, width);
+  bvh.order = std::move(binary.order);
+  return bvh;
+}
+
+// Depth, node and leaf counts of the binary tree (for tests).
+template <class T>
+Stats stats(const std::vector<BinaryNode<T>>& nodes) {
   Stats st;
   if (nodes.empty()) return st;
   st.nodes = static_cast<int>(nodes.size());
@@ -434,7 +563,7 @@ Stats stats(const std::vector<Node>& nodes) {
   while (!todo.empty()) {
     auto [i, d] = todo.back();
     todo.pop_back();
-    const Node& node = nodes[static_cast<size_t>(i)];
+    const BinaryNode<T>& node = nodes[static_cast<size_t>(i)];
     if (node.count > 0) {
       st.leaves++;
       st.max_depth = std::max(st.max_depth, d);
@@ -442,6 +571,29 @@ Stats stats(const std::vector<Node>& nodes) {
     } else {
       todo.push_back({node.first, d + 1});
       todo.push_back({node.first + 1, d + 1});
+    }
+  }
+  return st;
+}
+
+// The same of a wide tree given as its links; max_depth counts inner nodes on a path.
+inline Stats wide_stats(const std::vector<int>& links, int width) {
+  Stats st;
+  if (links.empty()) return st;
+  st.nodes = static_cast<int>(links.size()) / (2 * width);
+  std::vector<std::pair<int, int>> todo{{0, 1}};
+  while (!todo.empty()) {
+    auto [i, d] = todo.back();
+    todo.pop_back();
+    st.max_depth = std::max(st.max_depth, d);
+    const int* link = links.data() + static_cast<size_t>(i) * 2 * width;
+    for (int k = 0; k < width; ++k) {
+      if (link[width + k] > 0) {
+        st.leaves++;
+        st.max_leaf = std::max(st.max_leaf, link[width + k]);
+      } else if (link[width + k] == 0) {
+        todo.push_back({link[k], d + 1});
+      }
     }
   }
   return st;

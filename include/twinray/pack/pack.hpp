@@ -29,6 +29,14 @@ namespace twinray {
 // always, or never (benchmarks and tests compare the two).
 enum class BvhPolicy { Auto, Always, Never };
 
+// How pack_scene builds the BVH: whether, and how many children per node (2, 4 or 8).
+// The width changes speed only, never a pixel. Backends say which is fastest on them
+// (RenderBackend::preferred_bvh_width); any backend renders any width.
+struct PackOptions {
+  BvhPolicy bvh = BvhPolicy::Auto;
+  int bvh_width = bvh::kCpuWidth;
+};
+
 // What a render needs to know of a packed scene besides its arrays: their sizes, the
 // background and which features the geometry uses. A backend that has uploaded the
 // arrays keeps only this.
@@ -48,14 +56,17 @@ struct PackedScene {
   std::vector<typename Code::Triangle> triangles;
   std::vector<typename Code::Plane> planes;
   std::vector<typename Code::Material> materials;
-  std::vector<typename Code::BvhNode> bvh_nodes;
+  // The BVH (device/types.h, "The BVH"): bvh_width children per node; empty without one.
+  int bvh_width = 0;
+  std::vector<T> bvh_boxes;
+  std::vector<int> bvh_links;
   std::vector<int> bvh_prims;
   // One per triangle, in the same order, when some mesh has normals or uvs; else empty.
   std::vector<typename Code::TriangleAttr> triangle_attrs;
   std::vector<typename Code::Texture> textures;
   std::vector<T> texels;  // every texture's linear RGB, one after the other
   glm::vec<3, T> background{T(0), T(0), T(0)};
-  // Bits of the geometry: TR_F_SPHERES, TR_F_TRIANGLES, TR_F_PLANES, TR_F_BVH,
+  // Bits of the geometry: TR_F_SPHERES, TR_F_TRIANGLES, TR_F_PLANES, TR_F_BVH2/4/8,
   // TR_F_ATTRIBUTES, TR_F_TEXTURES.
   unsigned features = 0;
   bool any_glazed = false;  // some material has glaze > 0
@@ -65,18 +76,23 @@ struct PackedScene {
     s.n_spheres = static_cast<int>(spheres.size());
     s.n_triangles = static_cast<int>(triangles.size());
     s.n_planes = static_cast<int>(planes.size());
-    s.n_bvh_nodes = static_cast<int>(bvh_nodes.size());
+    s.n_bvh_nodes = bvh_node_count();
     s.background = background;
     s.features = features;
     s.any_glazed = any_glazed;
     return s;
   }
 
+  int bvh_node_count() const {
+    return bvh_width > 0 ? static_cast<int>(bvh_links.size()) / (2 * bvh_width) : 0;
+  }
+
   // Bytes the arrays hold (what an upload sends).
   size_t bytes() const {
     return spheres.size() * sizeof(spheres[0]) + triangles.size() * sizeof(triangles[0]) +
            planes.size() * sizeof(planes[0]) + materials.size() * sizeof(materials[0]) +
-           bvh_nodes.size() * sizeof(bvh_nodes[0]) + bvh_prims.size() * sizeof(int) +
+           bvh_boxes.size() * sizeof(T) + bvh_links.size() * sizeof(int) +
+           bvh_prims.size() * sizeof(int) +
            triangle_attrs.size() * sizeof(typename Code::TriangleAttr) +
            textures.size() * sizeof(typename Code::Texture) + texels.size() * sizeof(T);
   }
@@ -124,7 +140,8 @@ struct PackedFrame {
     s.planes = scene.planes.data();
     s.materials = scene.materials.data();
     s.lights = lights.data();
-    s.bvh_nodes = scene.bvh_nodes.data();
+    s.bvh_boxes = scene.bvh_boxes.data();
+    s.bvh_links = scene.bvh_links.data();
     s.bvh_prims = scene.bvh_prims.data();
     s.triangle_attrs = scene.triangle_attrs.data();
     s.textures = scene.textures.data();
@@ -166,9 +183,13 @@ void pack_attributes(const Mesh<T>& m, size_t f, Attr& a) {
 }  // namespace detail
 
 // Packs the geometry and materials of `scene` (checked first: validate(scene)), with a
-// BVH over its spheres and triangles as `bvh` says. Lights are per frame (pack_frame).
+// BVH over its spheres and triangles as `options` say. Lights are per frame
+// (pack_frame). Throws InvalidInput for a BVH width other than 2, 4 or 8.
 template <class T>
-PackedScene<T> pack_scene(const Scene<T>& scene, BvhPolicy bvh = BvhPolicy::Auto) {
+PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
+  if (!bvh::valid_width(options.bvh_width))
+    throw invalid_input("bvh_width: " + std::to_string(options.bvh_width) + " is not 2, 4 or 8");
+  const BvhPolicy bvh = options.bvh;
   validate_geometry(scene);
   PackedScene<T> ps;
   ps.background = scene.background;
@@ -212,7 +233,7 @@ PackedScene<T> pack_scene(const Scene<T>& scene, BvhPolicy bvh = BvhPolicy::Auto
       (bvh == BvhPolicy::Auto && bvh::worth_building(static_cast<long long>(ps.spheres.size()),
                                                      static_cast<long long>(ps.triangles.size())));
   if (with_bvh && !(ps.spheres.empty() && ps.triangles.empty())) {
-    bvh::Bvh<T> tree = bvh::build<T>(ps.spheres, ps.triangles);
+    bvh::Bvh<T> tree = bvh::build<T>(ps.spheres, ps.triangles, options.bvh_width);
     // Spheres and triangles are reordered into the order the leaves list them, so a
     // leaf's primitives lie side by side in memory and a ray that walks the tree reads
     // them in order (hits report the object id stored in the primitive, which moves
@@ -239,16 +260,25 @@ PackedScene<T> pack_scene(const Scene<T>& scene, BvhPolicy bvh = BvhPolicy::Auto
     ps.spheres.swap(spheres);
     ps.triangles.swap(triangles);
     ps.triangle_attrs.swap(attrs);
-    ps.bvh_nodes = std::move(tree.nodes);
+    ps.bvh_width = tree.width;
+    ps.bvh_boxes = std::move(tree.boxes);
+    ps.bvh_links = std::move(tree.links);
   }
   if (!ps.spheres.empty()) ps.features |= TR_F_SPHERES;
   if (!ps.triangles.empty()) ps.features |= TR_F_TRIANGLES;
   if (!ps.planes.empty()) ps.features |= TR_F_PLANES;
-  if (!ps.bvh_nodes.empty()) ps.features |= TR_F_BVH;
+  if (!ps.bvh_links.empty()) ps.features |= bvh::width_feature(ps.bvh_width);
   if (!ps.triangle_attrs.empty()) ps.features |= TR_F_ATTRIBUTES;
   for (const Material<T>& m : scene.materials)
     if (m.texture >= 0) ps.features |= TR_F_TEXTURES;
   return ps;
+}
+
+template <class T>
+PackedScene<T> pack_scene(const Scene<T>& scene, BvhPolicy bvh) {
+  PackOptions options;
+  options.bvh = bvh;
+  return pack_scene(scene, options);
 }
 
 // The Features mask of a render: the scene's geometry bits, and what the options and

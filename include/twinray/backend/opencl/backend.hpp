@@ -65,6 +65,11 @@ class OpenCLBackend final : public RenderBackend<T> {
   }
 
   Backend kind() const override { return Backend::OpenCL; }
+  PackOptions pack_options() const override {
+    PackOptions options;
+    options.bvh_width = bvh::kOpenClWidth;
+    return options;
+  }
   std::string device_name() const override { return ctx_.info().name; }
   const DeviceInfo& device() const { return ctx_.info(); }
 

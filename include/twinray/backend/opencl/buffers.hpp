@@ -54,9 +54,9 @@ class Buffer {
 };
 
 // The buffers every kernel in kernels/render.cl takes as its first arguments, in this
-// order: params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims,
-// triangle_attrs, textures, texels.
-constexpr cl_uint kSceneArgs = 11;
+// order: params, spheres, triangles, planes, materials, lights, bvh_boxes, bvh_links,
+// bvh_prims, triangle_attrs, textures, texels.
+constexpr cl_uint kSceneArgs = 12;
 
 class SceneBuffers {
  public:
@@ -71,7 +71,8 @@ class SceneBuffers {
     put(triangles_, ps.triangles);
     put(planes_, ps.planes);
     put(materials_, ps.materials);
-    put(bvh_nodes_, ps.bvh_nodes);
+    put(bvh_boxes_, ps.bvh_boxes);
+    put(bvh_links_, ps.bvh_links);
     put(bvh_prims_, ps.bvh_prims);
     put(triangle_attrs_, ps.triangle_attrs);
     put(textures_, ps.textures);
@@ -88,15 +89,15 @@ class SceneBuffers {
   }
 
   std::array<cl_mem, kSceneArgs> args() const {
-    return {params_.mem(),         spheres_.mem(),  triangles_.mem(), planes_.mem(),
-            materials_.mem(),      lights_.mem(),   bvh_nodes_.mem(), bvh_prims_.mem(),
-            triangle_attrs_.mem(), textures_.mem(), texels_.mem()};
+    return {params_.mem(),    spheres_.mem(),        triangles_.mem(), planes_.mem(),
+            materials_.mem(), lights_.mem(),         bvh_boxes_.mem(), bvh_links_.mem(),
+            bvh_prims_.mem(), triangle_attrs_.mem(), textures_.mem(),  texels_.mem()};
   }
   cl_mem params() const { return params_.mem(); }
 
  private:
-  Buffer params_, spheres_, triangles_, planes_, materials_, lights_, bvh_nodes_, bvh_prims_,
-      triangle_attrs_, textures_, texels_;
+  Buffer params_, spheres_, triangles_, planes_, materials_, lights_, bvh_boxes_, bvh_links_,
+      bvh_prims_, triangle_attrs_, textures_, texels_;
 };
 
 }  // namespace opencl
