@@ -7,15 +7,14 @@
 #include "twinray/device/types.h"
 #include "twinray/device/functions.h"
 
-#define TR_SCENE_ARGS                                                                    \
-  __global const TrParams *params, __global const TrSphere *spheres,                     \
-      __global const TrTriangle *triangles, __global const TrPlane *planes,              \
-      __global const TrMaterial *materials, __global const TrLight *lights,              \
-      __global const real *bvh_boxes, __global const int *bvh_links,                      \
-      __global const int *bvh_prims,                                                     \
-      __global const TrTriangleAttr *triangle_attrs, __global const TrTexture *textures, \
-      __global const real *texels
-#define TR_SCENE_ARG_NAMES                                                                     \
+#define TR_SCENE_ARGS                                                               \
+  __global const TrParams *params, __global const TrSphere *spheres,                \
+      __global const TrTriangle *triangles, __global const TrPlane *planes,         \
+      __global const TrMaterial *materials, __global const TrLight *lights,         \
+      __global const real *bvh_boxes, __global const int *bvh_links,                \
+      __global const int *bvh_prims, __global const TrTriangleAttr *triangle_attrs, \
+      __global const TrTexture *textures, __global const real *texels
+#define TR_SCENE_ARG_NAMES                                                                \
   params, spheres, triangles, planes, materials, lights, bvh_boxes, bvh_links, bvh_prims, \
       triangle_attrs, textures, texels
 

@@ -183,18 +183,12 @@ TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nea
   return any_hit ? 0 : nearest->prim >= 0;
 }
 
-/* The walks for the width the scene's BVH was built with, closest hit and any hit each
- * compiled on its own. Each width is compiled only where the Features mask holds its
- * bit. */
-TR_FN int tr_bvh_closest(const TrSceneRef* s, TrRay ray, TrNearest* nearest) {
-  if (tr_use(s, TR_F_BVH8)) return tr_bvh_walk_wide(s, ray, nearest, 0, 8);
-  if (tr_use(s, TR_F_BVH4)) return tr_bvh_walk_wide(s, ray, nearest, 0, 4);
-  if (tr_use(s, TR_F_BVH2)) return tr_bvh_walk_wide(s, ray, nearest, 0, 2);
-  return 0;
-}
-TR_FN int tr_bvh_any(const TrSceneRef* s, TrRay ray, TrNearest* limit) {
-  if (tr_use(s, TR_F_BVH8)) return tr_bvh_walk_wide(s, ray, limit, 1, 8);
-  if (tr_use(s, TR_F_BVH4)) return tr_bvh_walk_wide(s, ray, limit, 1, 4);
-  if (tr_use(s, TR_F_BVH2)) return tr_bvh_walk_wide(s, ray, limit, 1, 2);
+/* The walk for the width the scene's BVH was built with. Each width is compiled only
+ * where the Features mask holds its bit; callers pass any_hit as a constant, so closest
+ * hit and any hit each get a walk of their own. */
+TR_FN_INLINE int tr_bvh_walk(const TrSceneRef* s, TrRay ray, TrNearest* nearest, int any_hit) {
+  if (tr_use(s, TR_F_BVH8)) return tr_bvh_walk_wide(s, ray, nearest, any_hit, 8);
+  if (tr_use(s, TR_F_BVH4)) return tr_bvh_walk_wide(s, ray, nearest, any_hit, 4);
+  if (tr_use(s, TR_F_BVH2)) return tr_bvh_walk_wide(s, ray, nearest, any_hit, 2);
   return 0;
 }

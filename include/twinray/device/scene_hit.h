@@ -43,7 +43,7 @@ TR_FN int tr_closest_hit(const TrSceneRef* s, TrRay ray, real tmax, TrHit* hit) 
   int n_bounded = n_spheres + s->params->n_triangles;
   TR_COUNT_RAY();
   if (tr_use(s, TR_F_BVH)) {
-    tr_bvh_closest(s, ray, &nearest);
+    tr_bvh_walk(s, ray, &nearest, 0);
   } else {
     if (TR_HAS(TR_F_SPHERES)) {
       for (int i = 0; i < n_spheres; ++i)
@@ -71,7 +71,7 @@ TR_FN int tr_any_hit(const TrSceneRef* s, TrRay ray, real tmax) {
     TrNearest limit;
     limit.t = tmax;
     limit.prim = -1;
-    if (tr_bvh_any(s, ray, &limit)) return 1;
+    if (tr_bvh_walk(s, ray, &limit, 1)) return 1;
   } else {
     if (TR_HAS(TR_F_SPHERES)) {
       for (int i = 0; i < s->params->n_spheres; ++i) {

@@ -89,6 +89,11 @@ constexpr int log2_width(int w) {
 constexpr unsigned width_feature(int w) {
   return w == 8 ? TR_F_BVH8 : w == 4 ? TR_F_BVH4 : TR_F_BVH2;
 }
+// Nodes in a tree of this width whose links array has this many entries.
+inline int node_count(const std::vector<int>& links, int width) {
+  return width > 0 ? static_cast<int>(links.size()) / (2 * width) : 0;
+}
+
 // The traversal's stack bound: W - 1 entries per inner wide node on a path, and a path
 // holds at most floor((kMaxDepth - 1) / L) + 1 of them (see the collapse above).
 constexpr int stack_needed(int w) {
@@ -430,7 +435,7 @@ struct Bvh {
   std::vector<T> boxes;    // 6 * width per node
   std::vector<int> links;  // 2 * width per node: first[width], count[width]
   std::vector<int> order;
-  int node_count() const { return width > 0 ? static_cast<int>(links.size()) / (2 * width) : 0; }
+  int node_count() const { return bvh::node_count(links, width); }
 };
 
 // Builds the binary SAH tree of these spheres and triangles; touches nothing else.
@@ -580,7 +585,7 @@ Stats stats(const std::vector<BinaryNode<T>>& nodes) {
 inline Stats wide_stats(const std::vector<int>& links, int width) {
   Stats st;
   if (links.empty()) return st;
-  st.nodes = static_cast<int>(links.size()) / (2 * width);
+  st.nodes = node_count(links, width);
   std::vector<std::pair<int, int>> todo{{0, 1}};
   while (!todo.empty()) {
     auto [i, d] = todo.back();

@@ -83,9 +83,7 @@ struct PackedScene {
     return s;
   }
 
-  int bvh_node_count() const {
-    return bvh_width > 0 ? static_cast<int>(bvh_links.size()) / (2 * bvh_width) : 0;
-  }
+  int bvh_node_count() const { return bvh::node_count(bvh_links, bvh_width); }
 
   // Bytes the arrays hold (what an upload sends).
   size_t bytes() const {
