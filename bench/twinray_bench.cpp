@@ -7,6 +7,7 @@
 //
 // Defaults: the built-in set (bench_scenes.hpp) at 1920x1080, both backends (OpenCL
 // when a device exists), float, 5 timed runs after one warm-up.
+#include <algorithm>
 #include <cstdlib>
 #include <iostream>
 #include <sstream>
@@ -71,7 +72,10 @@ int main(int argc, char** argv) {
   }
   if (width < 1 || height < 1) return usage("bad image size");
   std::cerr << "machine: " << twinray_bench::machine_description() << "\n";
-  bool have_opencl = twinray::opencl_available();
+  // Only an OpenCL row may load the OpenCL platform: a CPU-only run keeps PoCL (and its
+  // LLVM) out of the process, and out of its peak memory.
+  const bool want_opencl = std::find(backends.begin(), backends.end(), "opencl") != backends.end();
+  const bool have_opencl = want_opencl && twinray::opencl_available();
   std::cout << twinray_bench::csv_header() << std::endl;
   try {
     for (const std::string& name : scenes)

@@ -240,7 +240,8 @@ int run_bench(const BenchArgs& a) {
   std::vector<std::string> scenes =
       a.scene.empty() ? twinray_bench::default_scenes() : std::vector<std::string>{a.scene};
   std::vector<twinray::Backend> backends;
-  bool have_opencl = twinray::opencl_available(-1);
+  // A CPU-only run never asks for the OpenCL platform, so PoCL is never loaded.
+  const bool have_opencl = a.backend != "cpu" && twinray::opencl_available(-1);
   if (a.backend == "cpu" || a.backend == "all") backends.push_back(twinray::Backend::Cpu);
   if (a.backend == "opencl" || a.backend == "all" || a.backend == "auto") {
     if (have_opencl)

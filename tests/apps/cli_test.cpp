@@ -418,6 +418,32 @@ TEST_CASE("status 3: --backend opencl with no OpenCL platform says so") {
   CHECK(contains(r.out, "OpenCL devices: none"));
 }
 
+TEST_CASE("a CPU-only run never loads an OpenCL platform") {
+  // The ICD loader opens the libraries named in OCL_ICD_VENDORS when a program first asks
+  // for the platforms; glibc's LD_DEBUG=files logs every library opened. A marker ICD
+  // that no run may open shows whether a platform (PoCL and its LLVM, about 70 MiB) was
+  // loaded.
+  const std::string dir = fresh_folder(kWork, "cpu_only");
+  const std::string vendors = fresh_folder(kWork, "cpu_only_vendors");
+  write_file(vendors + "/marker.icd", "libtwinray_marker_icd.so\n");
+  const std::vector<std::string> env = {"OCL_ICD_VENDORS=" + vendors, "LD_DEBUG=files"};
+  const std::string marker = "libtwinray_marker_icd.so";
+  // The probe works: `info` asks for the platforms, and the loader tries the marker.
+  Result r = run_twinray({"info"}, dir, env);
+  CHECK(r.status == 0);
+  CHECK(contains(r.err, marker));
+  r = run_twinray(
+      {"render", "demo", "-o", "cpu.png", "--backend", "cpu", "--width", "16", "--height", "12"},
+      dir, env);
+  CHECK(r.status == 0);
+  CHECK_FALSE(contains(r.err, marker));
+  r = run_twinray(
+      {"bench", "demo", "--backend", "cpu", "--runs", "1", "--width", "16", "--height", "12"}, dir,
+      env);
+  CHECK(r.status == 0);
+  CHECK_FALSE(contains(r.err, marker));
+}
+
 TEST_CASE("status 3: an OpenCL device index that does not exist") {
   std::string dir = fresh_folder(kWork, "status3_device");
   Result r =

@@ -1,11 +1,13 @@
 // The OpenCL backend: the launches. It builds (or takes from the cache) the program
 // for the render's Features mask (program.hpp), sends the scene's arrays once per scene
 // and the frame's parameters and lights every render (buffers.hpp), runs one
-// work-item per pixel of the rectangle and reads the framebuffer back.
+// work-item per pixel of the rectangle and reads the framebuffer back. On a CPU device
+// the scene's arrays and the framebuffer are the host's own memory, not copies.
 #pragma once
 
 #include <array>
 #include <chrono>
+#include <cstring>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -82,6 +84,11 @@ class OpenCLBackend final : public RenderBackend<T> {
   // Times the scene's arrays went to the device (once per set_scene that was rendered).
   long long scene_uploads() const { return scene_uploads_; }
 
+  // Whether the device works in the host's memory (a CPU device): then the scene's
+  // arrays and the framebuffer are wrapped, not copied (buffers.hpp).
+  bool shares_host_memory() const { return ctx_.info().is_cpu; }
+  const SceneBuffers& scene_buffers() const { return buffers_; }
+
   Image<T> render(const RenderRequest<T>& request, RenderInfo* info = nullptr) override {
     using clock = std::chrono::steady_clock;
     require_scene(has_scene_);
@@ -97,9 +104,13 @@ class OpenCLBackend final : public RenderBackend<T> {
 
     const auto t0 = clock::now();
     const bool uploading = pending_ != nullptr;
+    const bool in_place = shares_host_memory();
     if (uploading) {
-      buffers_.upload_scene(ctx_, *pending_);
-      pending_.reset();  // the device holds the arrays now
+      buffers_.upload_scene(ctx_, *pending_, in_place);
+      // In place, the device reads the packed arrays themselves: keep them. Otherwise
+      // the device holds a copy, and the host's is the caller's business.
+      host_scene_ = in_place ? std::move(pending_) : nullptr;
+      pending_.reset();
       ++scene_uploads_;
     }
     buffers_.upload_frame(ctx_, frame);
@@ -111,18 +122,37 @@ class OpenCLBackend final : public RenderBackend<T> {
                   "OpenCL: the framebuffer needs " + std::to_string(out_bytes >> 20) +
                       " MiB, more than the device's largest allocation (" +
                       std::to_string(dev.max_alloc >> 20) + " MiB) on " + dev.name);
-    output_.reserve(ctx_.context(), CL_MEM_READ_WRITE, out_bytes, "clCreateBuffer (framebuffer)");
+    Image<T> image(p.rect_w, p.rect_h);
+    if (in_place)
+      output_.wrap(ctx_.context(), CL_MEM_READ_WRITE, image.rgb.data(), out_bytes,
+                   "clCreateBuffer (framebuffer, host memory)");
+    else
+      output_.reserve(ctx_.context(), CL_MEM_READ_WRITE, out_bytes, "clCreateBuffer (framebuffer)");
     long long refined = 0;
     if (p.adaptive_spp > 0)
       refined = launch_adaptive(program.program, frame, &transfer_ms);
     else
       launch_uniform(program.program, request.options.output, p);
 
-    Image<T> image(p.rect_w, p.rect_h);
     const auto t_read = clock::now();
-    check(clEnqueueReadBuffer(ctx_.queue(), output_.mem(), CL_TRUE, 0, out_bytes, image.rgb.data(),
-                              0, nullptr, nullptr),
-          "clEnqueueReadBuffer");
+    if (in_place) {
+      // Mapping makes the device's writes visible in the image (the OpenCL 1.2 rule for
+      // CL_MEM_USE_HOST_PTR); on a CPU device it copies nothing.
+      cl_int err = CL_SUCCESS;
+      void* mapped = clEnqueueMapBuffer(ctx_.queue(), output_.mem(), CL_TRUE, CL_MAP_READ, 0,
+                                        out_bytes, 0, nullptr, nullptr, &err);
+      check(err, "clEnqueueMapBuffer (framebuffer)");
+      if (mapped != image.rgb.data())  // a device may map a copy of its own
+        std::memcpy(image.rgb.data(), mapped, out_bytes);
+      check(clEnqueueUnmapMemObject(ctx_.queue(), output_.mem(), mapped, 0, nullptr, nullptr),
+            "clEnqueueUnmapMemObject (framebuffer)");
+      check(clFinish(ctx_.queue()), "clFinish");
+      output_.release();  // the image leaves with the caller
+    } else {
+      check(clEnqueueReadBuffer(ctx_.queue(), output_.mem(), CL_TRUE, 0, out_bytes,
+                                image.rgb.data(), 0, nullptr, nullptr),
+            "clEnqueueReadBuffer");
+    }
     transfer_ms += sample_plan::ms_since(t_read);
     ctx_.programs().save_binary(program);
     if (info) {
@@ -232,8 +262,11 @@ class OpenCLBackend final : public RenderBackend<T> {
   }
 
   Context& ctx_;
-  SceneSummary<T> scene_;  // what pack_frame reads; the arrays live on the device
+  SceneSummary<T> scene_;  // what pack_frame reads; the arrays are in buffers_
   std::shared_ptr<const PackedScene<T>> pending_;  // set, not yet uploaded
+  // The arrays the device reads in place (shares_host_memory()); declared before the
+  // buffers that wrap them, so that it outlives them.
+  std::shared_ptr<const PackedScene<T>> host_scene_;
   bool has_scene_ = false;
   long long scene_uploads_ = 0;
   SceneBuffers buffers_;

@@ -1,6 +1,11 @@
 // OpenCL buffers of one backend: the scene's arrays (uploaded once per scene), the
 // frame's parameters and lights (a few hundred bytes, written every render), and the
 // framebuffer and adaptive-sampling scratch (grown as needed, never shrunk).
+//
+// A CPU device shares the host's memory: there the scene's arrays and the framebuffer
+// are not copied but wrapped (CL_MEM_USE_HOST_PTR), so the device reads the packed
+// scene in place and writes the image where the caller gets it. On PoCL's CPU device
+// this saves one copy of the scene and of the framebuffer.
 #pragma once
 
 #include <array>
@@ -34,6 +39,19 @@ class Buffer {
     capacity_ = want;
   }
 
+  // Wraps `bytes` of host memory at `data` (CL_MEM_USE_HOST_PTR): the device uses that
+  // memory itself, and it must outlive the buffer (or the next wrap() or reserve()).
+  // No bytes: a private 16-byte buffer, since OpenCL has no empty buffers.
+  void wrap(cl_context context, cl_mem_flags flags, void* data, size_t bytes, const char* what) {
+    release();
+    if (bytes == 0) return reserve(context, flags, 0, what);
+    cl_int err = CL_SUCCESS;
+    mem_ = clCreateBuffer(context, flags | CL_MEM_USE_HOST_PTR, bytes, data, &err);
+    check(err, what);
+    // capacity_ stays 0: the memory is the caller's, so a later reserve() or write()
+    // makes a buffer of its own instead of writing into it.
+  }
+
   // Writes `bytes` from `data` to the start, growing the buffer first when needed.
   void write(const Context& ctx, cl_mem_flags flags, const void* data, size_t bytes,
              const char* what) {
@@ -43,12 +61,13 @@ class Buffer {
             "clEnqueueWriteBuffer");
   }
 
- private:
   void release() {
     if (mem_) clReleaseMemObject(mem_);
     mem_ = nullptr;
     capacity_ = 0;
   }
+
+ private:
   cl_mem mem_ = nullptr;
   size_t capacity_ = 0;
 };
@@ -60,12 +79,18 @@ constexpr cl_uint kSceneArgs = 12;
 
 class SceneBuffers {
  public:
-  // The scene's arrays, sent once per scene.
+  // The scene's arrays, sent once per scene; or, with `in_place` (a device that shares
+  // the host's memory), wrapped where they are: then `ps` must outlive the buffers.
   template <class T>
-  void upload_scene(const Context& ctx, const PackedScene<T>& ps) {
+  void upload_scene(const Context& ctx, const PackedScene<T>& ps, bool in_place) {
     auto put = [&](Buffer& b, const auto& v) {
-      b.write(ctx, CL_MEM_READ_ONLY, v.data(), v.size() * sizeof(v[0]),
-              "clCreateBuffer (scene data)");
+      const size_t bytes = v.size() * sizeof(v[0]);
+      if (in_place)  // read-only on both sides: the const_cast only meets the C API
+        b.wrap(ctx.context(), CL_MEM_READ_ONLY,
+               const_cast<void*>(static_cast<const void*>(v.data())), bytes,
+               "clCreateBuffer (scene data, host memory)");
+      else
+        b.write(ctx, CL_MEM_READ_ONLY, v.data(), bytes, "clCreateBuffer (scene data)");
     };
     put(spheres_, ps.spheres);
     put(triangles_, ps.triangles);
