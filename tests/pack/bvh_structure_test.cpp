@@ -71,12 +71,13 @@ void check_structure(const PackedScene<T>& ps) {
     return ps.bvh_boxes[static_cast<size_t>((node * 6 + plane) * w + k)];
   };
   std::vector<int> seen_node(static_cast<size_t>(n_nodes), 0), seen_prim(static_cast<size_t>(n), 0);
-  // (node, inner nodes on the path including it, the parent's slot holding it)
+  // (node, inner nodes on the path including it, the parent's slot holding it, the
+  // stack entries its ancestors may have pushed: inner children - 1 each)
   struct Todo {
-    int node, depth, parent, slot;
+    int node, depth, parent, slot, stack;
   };
-  std::vector<Todo> todo{{0, 1, -1, 0}};
-  int max_depth = 0;
+  std::vector<Todo> todo{{0, 1, -1, 0, 0}};
+  int max_depth = 0, max_stack = 0;
   while (!todo.empty()) {
     Todo t = todo.back();
     todo.pop_back();
@@ -87,6 +88,8 @@ void check_structure(const PackedScene<T>& ps) {
     const int* first = ps.bvh_links.data() + static_cast<size_t>(t.node) * 2 * w;
     const int* count = first + w;
     CHECK(count[0] >= 0);  // no node is empty
+    const int stack = t.stack + std::max(int(std::count(count, count + w, 0)) - 1, 0);
+    max_stack = std::max(max_stack, stack);
     for (int k = 0; k < w; ++k) {
       if (count[k] < 0) {
         for (int a = 0; a < 3; ++a) {
@@ -102,7 +105,7 @@ void check_structure(const PackedScene<T>& ps) {
         }
       }
       if (count[k] == 0) {
-        todo.push_back({first[k], t.depth + 1, t.node, k});
+        todo.push_back({first[k], t.depth + 1, t.node, k, stack});
         continue;
       }
       REQUIRE(first[k] + count[k] <= n);
@@ -122,10 +125,12 @@ void check_structure(const PackedScene<T>& ps) {
   }
   CHECK(std::all_of(seen_node.begin(), seen_node.end(), [](int c) { return c == 1; }));
   CHECK(std::all_of(seen_prim.begin(), seen_prim.end(), [](int c) { return c == 1; }));
-  // The traversal pushes at most w - 1 entries per inner node on the path.
-  CHECK(max_depth == twinray::bvh::wide_stats(ps.bvh_links, w).max_depth);
-  CHECK((w - 1) * max_depth <= twinray::bvh::stack_needed(w));
-  CHECK(twinray::bvh::stack_needed(w) <= TR_BVH_STACK_SIZE);
+  // The traversal goes on into one inner child and pushes the others: the stack never
+  // holds more than the largest sum over a path, which must fit.
+  const twinray::bvh::Stats st = twinray::bvh::wide_stats(ps.bvh_links, w);
+  CHECK(max_depth == st.max_depth);
+  CHECK(max_stack == st.stack_need);
+  CHECK(max_stack <= TR_BVH_STACK_SIZE);
 }
 
 // Rays from random origins inside and around the scene in random directions, plus the
@@ -179,10 +184,11 @@ TEST_CASE_TEMPLATE("bvh: every primitive is reachable and boxes contain what the
     }
 }
 
-// The fixed-level collapse fills a node with the binary nodes L levels down; SAH trees
-// end in leaves at uneven depths, so nodes are not full (3000 spheres and triangles:
-// 2.9 children per 4-wide node, 3.9 per 8-wide), but each width must still cut the
-// node count and hold more children than the last.
+// The greedy collapse opens the largest box first until a node is full; only nodes over
+// small subtrees (fewer than W leaves under them) stay part empty, and SAH trees end in
+// many of those (3000 spheres and triangles: 2.9 children per 4-wide node, 3.9 per
+// 8-wide). Each width must still cut the node count and hold more children than the
+// last, and the greedy tree must have fewer nodes than the fixed-level one.
 TEST_CASE("bvh: wider nodes are fewer and fuller") {
   auto scene = bvh_test::random_scene<float>(3000, 3000, 5u);
   int nodes[9] = {};
@@ -197,6 +203,12 @@ TEST_CASE("bvh: wider nodes are fewer and fuller") {
     CHECK(fill > 0.45 * w);
     CHECK(fill > last_fill + 0.8);
     last_fill = fill;
+    if (w > 2) {
+      const auto binary = twinray::bvh::build_binary<float>(ps.spheres, ps.triangles);
+      const auto fixed =
+          twinray::bvh::collapse(binary, w, twinray::bvh::detail::Collapse::FixedLevels);
+      CHECK(st.nodes < twinray::bvh::node_count(fixed.links, w));
+    }
   }
   CHECK(nodes[4] < 0.6 * nodes[2]);
   CHECK(nodes[8] < 0.7 * nodes[4]);
@@ -239,8 +251,13 @@ TEST_CASE("bvh: depth stays within the stack on degenerate input") {
     }
   // The chain is deep enough to reach the cap, and its 8-wide tree the stack bound.
   auto deep = pack_with_bvh(chain, 0, 8);
-  CHECK(binary_depth(deep) >= twinray::bvh::kMaxDepth - 8);
-  CHECK(twinray::bvh::wide_stats(deep.bvh_links, 8).max_depth >= twinray::bvh::kMaxDepth / 3 - 3);
+  const int binary = binary_depth(deep);
+  CHECK(binary >= twinray::bvh::kMaxDepth - 8);
+  // The greedy collapse opens the chain's next link in each node, so an 8-wide node takes
+  // up to 7 links of it: the tree is about 7 times shallower and needs almost no stack.
+  const twinray::bvh::Stats st = twinray::bvh::wide_stats(deep.bvh_links, 8);
+  CHECK(st.max_depth <= binary / 6 + 1);
+  CHECK(st.stack_need <= 7);
 }
 
 TEST_CASE_TEMPLATE("bvh: traversal finds exactly the linear loops' closest hit", T, float, double) {
@@ -269,4 +286,54 @@ TEST_CASE("bvh: pack builds one from the threshold on, and not below it") {
   CHECK(!has_bvh(0, (w - 1) / tw));
   CHECK(has_bvh(0, (w + tw - 1) / tw));
   CHECK(has_bvh(3, 4));  // the demo's spheres and triangles
+}
+
+// A binary tree made so that the greedy collapse needs more stack than the traversal
+// has: at every level a chain of large boxes, each with a small inner sibling, fills an
+// 8-wide node with 8 inner children, while the next level hangs off a small box one
+// binary level down. The collapse must then fall back to fixed levels.
+TEST_CASE("bvh: a greedy tree that would overflow the stack is collapsed at fixed levels") {
+  using Node = twinray::bvh::BinaryNode<float>;
+  std::vector<Node> nodes;
+  auto box = [](float size) {
+    Node n{{0, 0, 0, size, size, size}, 0, 1};  // a leaf until split
+    return n;
+  };
+  auto split = [&](int i, float left, float right) {
+    const int first = static_cast<int>(nodes.size());
+    nodes.push_back(box(left));
+    nodes.push_back(box(right));
+    nodes[static_cast<size_t>(i)].first = first;
+    nodes[static_cast<size_t>(i)].count = 0;
+    return first;
+  };
+  nodes.push_back(box(4000));
+  int level = 0;
+  for (int d = 0; d < 20; ++d) {
+    const int first = split(level, 1, 2000);
+    int chain = first + 1;
+    for (int k = 0; k < 6; ++k) {
+      const int g = split(chain, 0.5f, 1000.0f - float(k));
+      split(g, 0.25f, 0.25f);  // the small sibling: inner, two leaves
+      chain = g + 1;
+    }
+    split(chain, 0.25f, 0.25f);
+    level = first;
+  }
+  split(level, 0.25f, 0.25f);
+  twinray::bvh::BinaryBvh<float> binary{nodes, {}};
+  REQUIRE(twinray::bvh::stats(binary.nodes).max_depth <= twinray::bvh::kMaxDepth);
+
+  using twinray::bvh::detail::Collapse;
+  twinray::bvh::Bvh<float> greedy;
+  greedy.width = 8;
+  int greedy_stack = 0;
+  twinray::bvh::detail::collapse_node(binary.nodes, 0, Collapse::Greedy, greedy, &greedy_stack);
+  CHECK(greedy_stack > TR_BVH_STACK_SIZE);
+  CHECK(twinray::bvh::wide_stats(greedy.links, 8).stack_need == greedy_stack);
+
+  const auto chosen = twinray::bvh::collapse(binary, 8);
+  const auto fixed = twinray::bvh::collapse(binary, 8, Collapse::FixedLevels);
+  CHECK(chosen.links == fixed.links);
+  CHECK(twinray::bvh::wide_stats(chosen.links, 8).stack_need <= twinray::bvh::stack_needed(8));
 }

@@ -7,9 +7,11 @@
  * touches (pbrt-v4 Bounds3::IntersectP, folded into the reciprocal as Ize 2013). */
 
 /* Leaf depth cap of the binary tree the wide one is collapsed from (pack/bvh.hpp), and
- * the stack that cap implies. A W-wide node (W = 2^L) stands for L levels of the binary
- * tree, so a path holds at most floor((48 - 1) / L) + 1 inner wide nodes, and each
- * pushes at most W - 1 children: 48 entries at W = 2, 72 at 4, 112 at 8. */
+ * the traversal stack. A walk holds at most (inner children - 1) entries per wide node
+ * on its path; the collapse checks each tree against this size and, where the greedy
+ * tree would need more, collapses at fixed levels: a W-wide node (W = 2^L) then stands
+ * for L binary levels, so a path holds at most floor((48 - 1) / L) + 1 inner wide
+ * nodes of W - 1 entries each: 48 entries at W = 2, 72 at 4, 112 at 8. */
 #define TR_BVH_MAX_DEPTH 48
 #define TR_BVH_STACK_SIZE 112
 

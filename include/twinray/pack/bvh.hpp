@@ -10,13 +10,16 @@
 // (0 .. n_spheres - 1), then triangles. build() returns the nodes and the order of the
 // primitives in the leaves; pack() reorders the scene's arrays by it.
 //
-// Collapse: a W-wide node (W = 2^L) takes the binary nodes L levels below the binary
-// node it stands for (leaves met on the way stay leaves), as the fixed-level collapse
-// in Wald, Benthin, Boulos, "Getting Rid of Packets: Efficient SIMD Single-Ray
-// Traversal using Multi-branching BVHs" (RT 2008) does for 4-wide trees. The SAH tree
-// is already balanced where it matters, so nodes come out nearly full, and every path
-// descends L binary levels per wide node, which bounds the traversal's stack
-// (device/bvh_traverse.h TR_BVH_STACK_SIZE).
+// Collapse: a W-wide node takes binary nodes below the one it stands for, opening the
+// inner child with the largest surface area until it holds W children or only leaves
+// (the greedy collapse of Embree's wide BVH builders and tinybvh's BVH4/BVH8
+// converters): large boxes, the ones rays enter most often, are split first, and nodes
+// come out nearly full. The traversal's stack holds at most (inner children - 1) entries
+// per wide node on a path; collapse() adds that up over every path and, where it would
+// exceed the stack (device/bvh_traverse.h TR_BVH_STACK_SIZE), collapses the tree at
+// fixed levels instead: a W = 2^L wide node then takes the binary nodes L levels down
+// (Wald, Benthin, Boulos, "Getting Rid of Packets: Efficient SIMD Single-Ray Traversal
+// using Multi-branching BVHs", RT 2008), which bounds every path by the binary depth cap.
 //
 // Guarantees the traversal relies on:
 //  - depth: no binary leaf is deeper than kMaxDepth, so the traversal's stack never
@@ -94,8 +97,9 @@ inline int node_count(const std::vector<int>& links, int width) {
   return width > 0 ? static_cast<int>(links.size()) / (2 * width) : 0;
 }
 
-// The traversal's stack bound: W - 1 entries per inner wide node on a path, and a path
-// holds at most floor((kMaxDepth - 1) / L) + 1 of them (see the collapse above).
+// The stack bound of a tree collapsed at fixed levels: W - 1 entries per inner wide node
+// on a path, and a path holds at most floor((kMaxDepth - 1) / L) + 1 of them (see the
+// collapse above). A greedy tree's need is measured instead (collapse()).
 constexpr int stack_needed(int w) {
   return (w - 1) * ((kMaxDepth - 1) / log2_width(w) + 1);
 }
@@ -169,9 +173,12 @@ struct BinaryNode {
 };
 
 // Node and leaf counts, the most primitives in a leaf, and the deepest path in inner
-// nodes (the root counts 1): at most W - 1 stack entries each.
+// nodes (the root counts 1).
 struct Stats {
   int nodes = 0, leaves = 0, max_depth = 0, max_leaf = 0;
+  // Wide trees: the most traversal stack entries a walk can hold, the largest sum over a
+  // path of (inner children - 1) per node.
+  int stack_need = 0;
 };
 
 namespace detail {
@@ -484,31 +491,76 @@ BinaryBvh<T> build_binary(const std::vector<typename device::Code<T>::Sphere>& s
 
 namespace detail {
 
-// Writes the wide node for binary node b (see the collapse at the top of this file) and,
-// depth first, the nodes below it; returns its index. Recursion depth is bounded by
-// kMaxDepth / L.
+enum class Collapse { Greedy, FixedLevels };
+
+// Half the surface area of a binary node's box (the SAH's measure of how often a ray
+// enters it).
 template <class T>
-int collapse_node(const std::vector<BinaryNode<T>>& binary, int b, Bvh<T>& out) {
+double half_area(const BinaryNode<T>& node) {
+  double d[3];
+  for (int a = 0; a < 3; ++a)
+    d[a] = double(node.bounds[TR_BVH_MAX_X + a]) - double(node.bounds[TR_BVH_MIN_X + a]);
+  return d[0] * d[1] + d[1] * d[2] + d[2] * d[0];
+}
+
+// The binary nodes the w-wide node for binary node b holds, in left-to-right order (see
+// the collapse at the top of this file); returns how many. A leaf b stands for itself.
+template <class T>
+int gather_children(const std::vector<BinaryNode<T>>& binary, int b, int w, Collapse how,
+                    int* children) {
+  children[0] = b;
+  int n = 1;
+  if (how == Collapse::FixedLevels) {
+    for (int level = 0; level < log2_width(w); ++level) {
+      int next[TR_BVH_MAX_WIDTH], m = 0;
+      for (int i = 0; i < n; ++i) {
+        const BinaryNode<T>& node = binary[static_cast<size_t>(children[i])];
+        if (node.count > 0) {
+          next[m++] = children[i];
+        } else {
+          next[m++] = node.first;
+          next[m++] = node.first + 1;
+        }
+      }
+      std::copy(next, next + m, children);
+      n = m;
+    }
+    return n;
+  }
+  // Greedy; the first of equal areas is opened, so the result is deterministic.
+  while (n < w) {
+    int best = -1;
+    double best_area = -1;
+    for (int i = 0; i < n; ++i) {
+      const BinaryNode<T>& node = binary[static_cast<size_t>(children[i])];
+      if (node.count > 0) continue;
+      const double area = half_area(node);
+      if (best < 0 || area > best_area) best = i, best_area = area;
+    }
+    if (best < 0) break;
+    const int first = binary[static_cast<size_t>(children[best])].first;
+    std::copy_backward(children + best + 1, children + n, children + n + 1);
+    children[best] = first;
+    children[best + 1] = first + 1;
+    ++n;
+  }
+  return n;
+}
+
+// Writes the wide node for binary node b and, depth first, the nodes below it; returns
+// its index, and in *stack the most traversal stack entries a walk from it can hold:
+// (inner children - 1) here, plus the most of any inner child. Recursion depth is
+// bounded by kMaxDepth.
+template <class T>
+int collapse_node(const std::vector<BinaryNode<T>>& binary, int b, Collapse how, Bvh<T>& out,
+                  int* stack) {
   const int w = out.width;
   const int self = out.node_count();
   out.boxes.resize(out.boxes.size() + static_cast<size_t>(6 * w));
   out.links.resize(out.links.size() + static_cast<size_t>(2 * w));
-  int children[TR_BVH_MAX_WIDTH] = {b};
-  int n = 1;
-  for (int level = 0; level < log2_width(w); ++level) {
-    int next[TR_BVH_MAX_WIDTH], m = 0;
-    for (int i = 0; i < n; ++i) {
-      const BinaryNode<T>& node = binary[static_cast<size_t>(children[i])];
-      if (node.count > 0) {
-        next[m++] = children[i];
-      } else {
-        next[m++] = node.first;
-        next[m++] = node.first + 1;
-      }
-    }
-    std::copy(next, next + m, children);
-    n = m;
-  }
+  int children[TR_BVH_MAX_WIDTH];
+  const int n = gather_children(binary, b, w, how, children);
+  int inner = 0, below = 0;
   for (int k = 0; k < w; ++k) {
     T* box = out.boxes.data() + static_cast<size_t>(self) * 6 * w;
     int* link = out.links.data() + static_cast<size_t>(self) * 2 * w;
@@ -524,19 +576,28 @@ int collapse_node(const std::vector<BinaryNode<T>>& binary, int b, Bvh<T>& out) 
     const BinaryNode<T>& child = binary[static_cast<size_t>(children[k])];
     for (int plane = 0; plane < 6; ++plane) box[plane * w + k] = child.bounds[plane];
     link[w + k] = child.count;
+    int first = child.first;
+    if (child.count == 0) {
+      int child_stack = 0;
+      first = collapse_node(binary, children[k], how, out, &child_stack);
+      below = std::max(below, child_stack);
+      ++inner;
+    }
     // The recursion grows the arrays: write the link through a fresh pointer after it.
-    const int first = child.count > 0 ? child.first : collapse_node(binary, children[k], out);
     out.links[static_cast<size_t>(self) * 2 * w + static_cast<size_t>(k)] = first;
   }
+  *stack = std::max(inner - 1, 0) + below;
   return self;
 }
 
 }  // namespace detail
 
-// The binary tree's nodes collapsed into `width`-wide nodes (2, 4 or 8); the order is
-// left to the caller.
+// The binary tree's nodes collapsed into `width`-wide nodes (2, 4 or 8): greedily, or at
+// fixed levels where the greedy tree would need more stack than the traversal has (see
+// the top of this file). The order is left to the caller.
 template <class T>
-Bvh<T> collapse(const BinaryBvh<T>& binary, int width) {
+Bvh<T> collapse(const BinaryBvh<T>& binary, int width,
+                detail::Collapse how = detail::Collapse::Greedy) {
   Bvh<T> out;
   out.width = width;
   if (binary.nodes.empty()) return out;
@@ -544,7 +605,14 @@ Bvh<T> collapse(const BinaryBvh<T>& binary, int width) {
   const size_t estimate = binary.nodes.size() / 2 / static_cast<size_t>(width - 1) + 1;
   out.boxes.reserve(estimate * 6 * static_cast<size_t>(width));
   out.links.reserve(estimate * 2 * static_cast<size_t>(width));
-  detail::collapse_node(binary.nodes, 0, out);
+  int stack = 0;
+  detail::collapse_node(binary.nodes, 0, how, out, &stack);
+  if (stack > TR_BVH_STACK_SIZE) {
+    // At fixed levels the need is at most stack_needed(width) (static_assert above).
+    out.boxes.clear();
+    out.links.clear();
+    detail::collapse_node(binary.nodes, 0, detail::Collapse::FixedLevels, out, &stack);
+  }
   return out;
 }
 
@@ -586,18 +654,25 @@ inline Stats wide_stats(const std::vector<int>& links, int width) {
   Stats st;
   if (links.empty()) return st;
   st.nodes = node_count(links, width);
-  std::vector<std::pair<int, int>> todo{{0, 1}};
+  struct Visit {
+    int node, depth, stack;  // stack: entries the ancestors may have pushed
+  };
+  std::vector<Visit> todo{{0, 1, 0}};
   while (!todo.empty()) {
-    auto [i, d] = todo.back();
+    const Visit v = todo.back();
     todo.pop_back();
-    st.max_depth = std::max(st.max_depth, d);
-    const int* link = links.data() + static_cast<size_t>(i) * 2 * width;
+    st.max_depth = std::max(st.max_depth, v.depth);
+    const int* link = links.data() + static_cast<size_t>(v.node) * 2 * width;
+    int inner = 0;
+    for (int k = 0; k < width; ++k) inner += link[width + k] == 0;
+    const int stack = v.stack + std::max(inner - 1, 0);
+    st.stack_need = std::max(st.stack_need, stack);
     for (int k = 0; k < width; ++k) {
       if (link[width + k] > 0) {
         st.leaves++;
         st.max_leaf = std::max(st.max_leaf, link[width + k]);
       } else if (link[width + k] == 0) {
-        todo.push_back({link[k], d + 1});
+        todo.push_back({link[k], v.depth + 1, stack});
       }
     }
   }
