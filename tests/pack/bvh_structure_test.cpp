@@ -159,13 +159,13 @@ void check_traversal(PackedScene<T> ps, int n_rays, uint32_t seed) {
     ray.d = glm::vec<3, T>(T(d.x), T(d.y), T(d.z));
     T tmax = r % 3 == 0 ? T(INFINITY) : T(1 + 4 * (u(rng) + 1));
     auto hb = K<T>::tr_no_hit(), hl = K<T>::tr_no_hit();
-    int fb = K<T>::tr_closest_hit(&sb, ray, tmax, &hb);
-    int fl = K<T>::tr_closest_hit(&sl, ray, tmax, &hl);
+    int fb = K<T>::tr_closest_hit(&sb, &ray, tmax, &hb);
+    int fl = K<T>::tr_closest_hit(&sl, &ray, tmax, &hl);
     hits += fl;
     bool same = fb == fl && hb.t == hl.t && hb.object == hl.object && hb.p == hl.p &&
                 hb.n == hl.n && hb.perr == hl.perr && hb.material == hl.material;
     mismatches += same ? 0 : 1;
-    any_mismatches += K<T>::tr_any_hit(&sb, ray, tmax) != K<T>::tr_any_hit(&sl, ray, tmax);
+    any_mismatches += K<T>::tr_any_hit(&sb, &ray, tmax) != K<T>::tr_any_hit(&sl, &ray, tmax);
   }
   CHECK(hits > n_rays / 100);  // the rays do hit things
   CHECK(mismatches == 0);

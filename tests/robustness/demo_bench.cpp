@@ -38,7 +38,7 @@ long long count_rays(const test_support::Packed<T>& ps) {
         for (int depth = 0; depth < segments; ++depth) {
           ++rays;
           auto hit = K::tr_no_hit();
-          if (!K::tr_closest_hit(&s, ray, T(INFINITY), &hit)) break;
+          if (!K::tr_closest_hit(&s, &ray, T(INFINITY), &hit)) break;
           glm::vec<3, T> n = glm::dot(hit.n, ray.d) > T(0) ? -hit.n : hit.n;
           if (ps.frame.features & TR_F_SHADOWS)
             for (const auto& l : ps.frame.lights) {

@@ -545,7 +545,7 @@ Figures case_watertight_closed(Ctx& ctx, V3<T> center, T radius, bool single_ray
         ray.d = K::tr_normalize(target - from);
         auto hit = K::tr_no_hit();
         ++f.samples;
-        if (!K::tr_closest_hit(&sref, ray, T(INFINITY), &hit))
+        if (!K::tr_closest_hit(&sref, &ray, T(INFINITY), &hit))
           ++f.leaks;
         else if (!std::isfinite(hit.t))
           ++f.nonfinite;
@@ -791,7 +791,7 @@ Figures case_degenerate(Ctx& ctx, double scale) {
       if (!(y > LD(0.1) * LD(s) && y < LD(0.9) * LD(s) && qabs(x) < LD(0.45) * LD(s))) continue;
       auto hit = K::tr_no_hit();
       ++f.samples;
-      if (!K::tr_closest_hit(&sref, ray, T(INFINITY), &hit) || hit.object != square)
+      if (!K::tr_closest_hit(&sref, &ray, T(INFINITY), &hit) || hit.object != square)
         ++f.leaks;
       else if (!std::isfinite(hit.t) || !std::isfinite(hit.n.x))
         ++f.nonfinite;

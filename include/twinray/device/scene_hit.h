@@ -34,8 +34,12 @@ TR_FN void tr_record_hit(const TrSceneRef* s, TrRay ray, TrNearest nearest, TrHi
     tr_triangle_attributes(&s->triangle_attrs[triangle], &s->triangles[triangle], bary, ray.d, hit);
 }
 
-/* The nearest hit in (0, tmax): the smallest (t, primitive id), see tr_offer_hit. */
-TR_FN int tr_closest_hit(const TrSceneRef* s, TrRay ray, real tmax, TrHit* hit) {
+/* The nearest hit in (0, tmax): the smallest (t, primitive id), see tr_offer_hit.
+ * Both entry points take the ray by pointer: passed by value, g++ stores the caller's
+ * ray field by field and reloads it in 16-byte pieces for the call, a store-forwarding
+ * stall on every ray (up to a tenth of a frame, docs/performance.md). */
+TR_FN int tr_closest_hit(const TrSceneRef* s, const TrRay* ray_in, real tmax, TrHit* hit) {
+  TrRay ray = *ray_in;
   TrNearest nearest;
   nearest.t = tmax;
   nearest.prim = -1;
@@ -65,7 +69,8 @@ TR_FN int tr_closest_hit(const TrSceneRef* s, TrRay ray, real tmax, TrHit* hit) 
 }
 
 /* Is anything in (0, tmax) along the ray? Stops at the first hit and makes no record. */
-TR_FN int tr_any_hit(const TrSceneRef* s, TrRay ray, real tmax) {
+TR_FN int tr_any_hit(const TrSceneRef* s, const TrRay* ray_in, real tmax) {
+  TrRay ray = *ray_in;
   TR_COUNT_RAY();
   if (tr_use(s, TR_F_BVH)) {
     TrNearest limit;

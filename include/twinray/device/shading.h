@@ -24,7 +24,7 @@ TR_FN int tr_light_blocked(const TrSceneRef* s, const TrHit* hit, vec3 light_pos
   shadow.d = to_light * (TR_R(1.0) / dist);
   /* Stop just short of the light (1 - 2^-13 of the way), so geometry the light sits
    * on does not shadow it: a relative margin, the same at every scale. */
-  return tr_any_hit(s, shadow, dist * TR_R(0.9998779296875));
+  return tr_any_hit(s, &shadow, dist * TR_R(0.9998779296875));
 }
 
 TR_FN vec3 tr_shade(const TrSceneRef* s, const TrHit* hit, vec3 ray_dir) {

@@ -12,7 +12,7 @@ TR_FN vec3 tr_trace(const TrSceneRef* s, TrRay ray) {
   int segments = tr_use(s, TR_F_GLAZE) ? p->max_depth : 1;
   for (int depth = 0; depth < segments; ++depth) {
     TrHit hit = tr_no_hit();
-    if (!tr_closest_hit(s, ray, TR_R(INFINITY), &hit)) {
+    if (!tr_closest_hit(s, &ray, TR_R(INFINITY), &hit)) {
       color = color + background * weight;
       break;
     }
@@ -52,7 +52,8 @@ TR_FN vec3 tr_render_aov(const TrSceneRef* s, int px, int py, int aov) {
   center.x = TR_R(0.5);
   center.y = TR_R(0.5);
   TrHit hit = tr_no_hit();
-  int found = tr_closest_hit(s, tr_camera_ray(s->params, px, py, center), TR_R(INFINITY), &hit);
+  TrRay camera = tr_camera_ray(s->params, px, py, center);
+  int found = tr_closest_hit(s, &camera, TR_R(INFINITY), &hit);
   vec3 zero = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
   if (aov == TR_AOV_NORMAL) return found ? hit.n : zero;
   if (aov == TR_AOV_SHADING_NORMAL) return found ? hit.ns : zero;
