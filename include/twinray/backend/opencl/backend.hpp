@@ -85,8 +85,14 @@ class OpenCLBackend final : public RenderBackend<T> {
   long long scene_uploads() const { return scene_uploads_; }
 
   // Whether the device works in the host's memory (a CPU device): then the scene's
-  // arrays and the framebuffer are wrapped, not copied (buffers.hpp).
-  bool shares_host_memory() const { return ctx_.info().is_cpu; }
+  // arrays and the framebuffer are wrapped, not copied (buffers.hpp). Oclgrind is left
+  // out: its uninitialized-memory checker marks global memory as defined only when the
+  // host writes it through the API, so a CL_MEM_USE_HOST_PTR buffer would read as
+  // uninitialized everywhere and hide the kernel's real reads of undefined data.
+  bool shares_host_memory() const {
+    const DeviceInfo& dev = ctx_.info();
+    return dev.is_cpu && dev.platform_name.find("Oclgrind") == std::string::npos;
+  }
   const SceneBuffers& scene_buffers() const { return buffers_; }
 
   Image<T> render(const RenderRequest<T>& request, RenderInfo* info = nullptr) override {
