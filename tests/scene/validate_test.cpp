@@ -82,6 +82,18 @@ TEST_CASE("scene refusals name the object and the problem") {
   s.add(Triangle<float>{{glm::vec3(0), glm::vec3(INFINITY, 0, 0), glm::vec3(0, 1, 0)}, 0});
   CHECK(refusal([&] { validate(s); }).find("objects[1].vertices[1]: must be finite") == 0);
   s = one_sphere();
+  Mesh<float> bad_vertex;
+  bad_vertex.vertices = {{0, 0, 0}, {1, 0, 0}, {0, NAN, 0}};
+  bad_vertex.triangles = {{0, 1, 2}};
+  s.add(bad_vertex);
+  CHECK(refusal([&] { validate(s); }).find("objects[1].vertices[2]: must be finite") == 0);
+  s = one_sphere();
+  s.add(Plane<float>{{0, INFINITY, 0}, {0, 1, 0}, 0});
+  CHECK(refusal([&] { validate(s); }).find("objects[1].point: must be finite") == 0);
+  s = one_sphere();
+  std::get<Sphere<float>>(s.objects[0]).center.z = NAN;
+  CHECK(refusal([&] { validate(s); }).find("objects[0].center: must be finite") == 0);
+  s = one_sphere();
   s.background = glm::vec3(0, 2, 0);
   CHECK(refusal([&] { validate(s); }) == "image.background[1]: must be in [0, 1], got 2");
   CHECK_NOTHROW(validate(one_sphere()));

@@ -9,6 +9,7 @@
 #include <sstream>
 #include <string>
 #include <type_traits>
+#include <utility>
 #include <glm/geometric.hpp>
 
 #include <twinray/core/error.hpp>
@@ -46,19 +47,29 @@ std::string format_vec(const glm::vec<3, T>& v) {
   throw invalid_input(path + ": " + problem);
 }
 
-template <class T>
-void require_finite(const std::string& path, const glm::vec<3, T>& v) {
-  if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
-    refuse(path, "must be finite, got " + format_vec(v));
+// A path is a string, or a function that makes it: the checks below format a value's
+// path only when they refuse it, so validating a million primitives formats no strings.
+inline std::string path_text(const std::string& path) {
+  return path;
+}
+template <class MakePath, class = decltype(std::declval<const MakePath&>()())>
+std::string path_text(const MakePath& make_path) {
+  return make_path();
 }
 
-template <class T>
-void require_range(const std::string& path, T v, T lo, T hi, bool lo_open = false) {
+template <class Path, class T>
+void require_finite(const Path& path, const glm::vec<3, T>& v) {
+  if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
+    refuse(path_text(path), "must be finite, got " + format_vec(v));
+}
+
+template <class Path, class T>
+void require_range(const Path& path, T v, T lo, T hi, bool lo_open = false) {
   bool ok = std::isfinite(v) && (lo_open ? v > lo : v >= lo) && v <= hi;
   if (!ok) {
     std::string want = std::isinf(hi) ? std::string(lo_open ? "> " : ">= ") + format_number(lo)
                                       : "in [" + format_number(lo) + ", " + format_number(hi) + "]";
-    refuse(path, "must be " + want + ", got " + format_number(v));
+    refuse(path_text(path), "must be " + want + ", got " + format_number(v));
   }
 }
 
@@ -91,10 +102,11 @@ inline void validate_corner_indices(const std::string& path,
 template <class T>
 void validate_mesh_attributes(const std::string& base, const Mesh<T>& m, size_t materials) {
   for (size_t i = 0; i < m.normals.size(); ++i) {
-    require_finite(at(base + ".normals", i), m.normals[i]);
+    auto path = [&] { return at(base + ".normals", i); };
+    require_finite(path, m.normals[i]);
     double len = glm::length(glm::dvec3(m.normals[i]));
     if (!(std::fabs(len - 1.0) <= 1e-3))
-      refuse(at(base + ".normals", i), "must have unit length, got " + format_vec(m.normals[i]));
+      refuse(path(), "must have unit length, got " + format_vec(m.normals[i]));
   }
   for (size_t i = 0; i < m.uvs.size(); ++i)
     if (!std::isfinite(m.uvs[i].x) || !std::isfinite(m.uvs[i].y))
@@ -208,42 +220,45 @@ void validate_geometry(const Scene<T>& scene) {
   // The device code indexes all texels with an int (device/texture.h).
   if (texels > 0x7fffffffll)
     refuse("textures", "hold " + std::to_string(texels) + " values in all, more than 2^31 - 1");
-  auto check_material = [&](const std::string& base, int material) {
-    if (material < 0 || static_cast<size_t>(material) >= scene.materials.size())
-      refuse(base + ".material", "no material with index " + std::to_string(material) + " (" +
-                                     std::to_string(scene.materials.size()) + " defined)");
-  };
   for (size_t i = 0; i < scene.objects.size(); ++i) {
-    std::string base = at("objects", i);
+    // Paths are made only for a value that is refused (detail::path_text).
+    auto base = [i] { return at("objects", i); };
+    auto field = [&base](const char* name) { return [&base, name] { return base() + name; }; };
+    auto check_material = [&](int material) {
+      if (material < 0 || static_cast<size_t>(material) >= scene.materials.size())
+        refuse(base() + ".material", "no material with index " + std::to_string(material) + " (" +
+                                         std::to_string(scene.materials.size()) + " defined)");
+    };
     const Object<T>& object = scene.objects[i];
     if (auto* s = std::get_if<Sphere<T>>(&object)) {
-      detail::require_finite(base + ".center", s->center);
-      detail::require_range(base + ".radius", s->radius, T(0), T(INFINITY), true);
-      check_material(base, s->material);
+      detail::require_finite(field(".center"), s->center);
+      detail::require_range(field(".radius"), s->radius, T(0), T(INFINITY), true);
+      check_material(s->material);
     } else if (auto* t = std::get_if<Triangle<T>>(&object)) {
       for (int v = 0; v < 3; ++v)
-        detail::require_finite(base + ".vertices[" + std::to_string(v) + "]", t->vertices[v]);
-      check_material(base, t->material);
+        detail::require_finite([&] { return base() + ".vertices[" + std::to_string(v) + "]"; },
+                               t->vertices[v]);
+      check_material(t->material);
     } else if (auto* p = std::get_if<Plane<T>>(&object)) {
-      detail::require_finite(base + ".point", p->point);
-      detail::require_finite(base + ".normal", p->normal);
+      detail::require_finite(field(".point"), p->point);
+      detail::require_finite(field(".normal"), p->normal);
       T len = glm::length(p->normal);
       if (!(len > T(0)) || !std::isfinite(len))
-        refuse(base + ".normal", "must be non-zero, got " + detail::format_vec(p->normal));
-      check_material(base, p->material);
+        refuse(base() + ".normal", "must be non-zero, got " + detail::format_vec(p->normal));
+      check_material(p->material);
     } else if (auto* m = std::get_if<Mesh<T>>(&object)) {
       for (size_t v = 0; v < m->vertices.size(); ++v)
-        detail::require_finite(at(base + ".vertices", v), m->vertices[v]);
+        detail::require_finite([&] { return at(base() + ".vertices", v); }, m->vertices[v]);
       for (size_t f = 0; f < m->triangles.size(); ++f)
         for (int k = 0; k < 3; ++k) {
           int index = m->triangles[f][k];
           if (index < 0 || static_cast<size_t>(index) >= m->vertices.size())
-            refuse(at(base + ".triangles", f) + "[" + std::to_string(k) + "]",
+            refuse(at(base() + ".triangles", f) + "[" + std::to_string(k) + "]",
                    "vertex index " + std::to_string(index) + " out of range (" +
                        std::to_string(m->vertices.size()) + " vertices)");
         }
-      check_material(base, m->material);
-      detail::validate_mesh_attributes(base, *m, scene.materials.size());
+      check_material(m->material);
+      detail::validate_mesh_attributes(base(), *m, scene.materials.size());
     }
   }
 }
