@@ -337,3 +337,32 @@ TEST_CASE("bvh: a greedy tree that would overflow the stack is collapsed at fixe
   CHECK(chosen.links == fixed.links);
   CHECK(twinray::bvh::wide_stats(chosen.links, 8).stack_need <= twinray::bvh::stack_needed(8));
 }
+
+TEST_CASE("bvh: the block partition puts every left element first and loses none") {
+  std::mt19937 rng(7);
+  // Sizes around the 64-element blocks and their pairs; left shares from none to all.
+  for (int n : {0, 1, 2, 63, 64, 65, 127, 128, 129, 191, 256, 1000, 4099, 100000}) {
+    for (double share : {0.0, 0.01, 0.5, 0.97, 1.0}) {
+      std::vector<int> v(static_cast<size_t>(n));
+      for (int i = 0; i < n; ++i) v[static_cast<size_t>(i)] = i;
+      std::shuffle(v.begin(), v.end(), rng);
+      const int threshold = static_cast<int>(share * n);
+      auto is_left = [threshold](int x) { return x < threshold; };
+      // A sub-range, as the builder partitions one node's primitives in place.
+      const int begin = n / 7, end = n - n / 5;
+      std::vector<int> before = v;
+      const int mid = twinray::bvh::detail::block_partition(v, begin, end, is_left);
+      CAPTURE(n);
+      CAPTURE(share);
+      REQUIRE(mid >= begin);
+      REQUIRE(mid <= end);
+      CHECK(std::all_of(v.begin() + begin, v.begin() + mid, is_left));
+      CHECK(std::none_of(v.begin() + mid, v.begin() + end, is_left));
+      CHECK(std::equal(v.begin(), v.begin() + begin, before.begin()));
+      CHECK(std::equal(v.begin() + end, v.end(), before.begin() + end));
+      std::sort(v.begin() + begin, v.begin() + end);
+      std::sort(before.begin() + begin, before.begin() + end);
+      CHECK(v == before);
+    }
+  }
+}
