@@ -1,5 +1,6 @@
 /* twinray OpenCL entry points: thin wrappers around the shared device code.
- * Built with -DTR_FEATURES=<mask> (and -DTR_DOUBLE for double renders). At build time
+ * Built with -DTR_FEATURES=<mask> (and -DTR_DOUBLE for double renders), and
+ * -DTR_ENTRY_POINTS=<TR_ENTRY_*> for a program that holds one render's kernels only. At build time
  * of the library, cmake/embed_kernels.cmake inlines the quoted includes below, with
  * #line markers, into a C++ header, so no OpenCL driver ever resolves an #include. */
 #include "twinray/device/prelude.h"
@@ -35,6 +36,12 @@ static inline TrSceneRef tr_scene_ref(TR_SCENE_ARGS) {
   return s;
 }
 
+#ifndef TR_ENTRY_POINTS
+#define TR_ENTRY_POINTS TR_ENTRY_ALL
+#endif
+#define TR_HOLDS(entry) (TR_ENTRY_POINTS == TR_ENTRY_ALL || TR_ENTRY_POINTS == (entry))
+
+#if TR_HOLDS(TR_ENTRY_RENDER)
 /* One work-item per pixel of the rectangle params->rect_*; the global size is padded
  * to the work-group size. The framebuffer holds the rectangle, row 0 at its top. */
 __kernel void tr_kernel_render(TR_SCENE_ARGS, __global real* out) {
@@ -45,6 +52,9 @@ __kernel void tr_kernel_render(TR_SCENE_ARGS, __global real* out) {
                tr_render_pixel(&s, params->rect_x + i, params->rect_y + j));
 }
 
+#endif
+
+#if TR_HOLDS(TR_ENTRY_AOV)
 __kernel void tr_kernel_aov(TR_SCENE_ARGS, __global real* out, int aov) {
   int i = (int)get_global_id(0), j = (int)get_global_id(1);
   if (i >= params->rect_w || j >= params->rect_h) return;
@@ -53,6 +63,9 @@ __kernel void tr_kernel_aov(TR_SCENE_ARGS, __global real* out, int aov) {
                tr_render_aov(&s, params->rect_x + i, params->rect_y + j, aov));
 }
 
+#endif
+
+#if TR_HOLDS(TR_ENTRY_ADAPTIVE)
 /* Adaptive sampling (device/adaptive.h), three launches. First pass, every pixel of
  * the statistics window: p->spp samples; sum and range go to `stats`, and the mean to
  * the framebuffer for the pixels of the rectangle. */
@@ -91,6 +104,9 @@ __kernel void tr_kernel_adaptive_refine(TR_SCENE_ARGS, __global real* out,
                tr_adaptive_refine(&s, stats, params->rect_x + i, params->rect_y + j));
 }
 
+#endif
+
+#if TR_ENTRY_POINTS == TR_ENTRY_ALL
 /* Every sample position of every pixel, for tests of device/sampling.h:
  * out[((y * width + x) * spp + i) * 2 + {0, 1}] = (x, y) of sample i. */
 __kernel void tr_kernel_sample_positions(__global real* out, int sampler, int seed, int spp,
@@ -119,3 +135,4 @@ __kernel void tr_kernel_layout_sizes(__global int* out) {
   out[7] = (int)sizeof(TrTriangleAttr);
   out[8] = (int)sizeof(TrTexture);
 }
+#endif

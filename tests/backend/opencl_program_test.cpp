@@ -2,8 +2,14 @@
 // reuse, struct layout as the device compiler sees it.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
+#include <mutex>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <twinray/twinray.hpp>
 
@@ -115,6 +121,44 @@ TEST_CASE("programs are cached in the process and on disk, the scene is sent onc
   for (const auto& f : std::filesystem::directory_iterator(dir))
     binaries += f.path().extension() == ".bin";
   CHECK(binaries >= 1);
+}
+
+TEST_CASE("a render's program holds only the kernels it launches") {
+  opencl::Context& ctx = opencl::shared_context(-1);
+  std::lock_guard<std::mutex> lock(ctx.mutex());
+  const std::pair<int, std::vector<std::string>> cases[] = {
+      {TR_ENTRY_RENDER, {"tr_kernel_render"}},
+      {TR_ENTRY_AOV, {"tr_kernel_aov"}},
+      {TR_ENTRY_ADAPTIVE,
+       {"tr_kernel_adaptive_first", "tr_kernel_adaptive_mark", "tr_kernel_adaptive_refine"}},
+      {TR_ENTRY_ALL,
+       {"tr_kernel_adaptive_first", "tr_kernel_adaptive_mark", "tr_kernel_adaptive_refine",
+        "tr_kernel_aov", "tr_kernel_layout_sizes", "tr_kernel_render",
+        "tr_kernel_sample_positions"}}};
+  for (const auto& [entry_points, expected] : cases) {
+    CAPTURE(entry_points);
+    bool built = false;
+    double ms = 0;
+    const cl_program program =
+        ctx.programs()
+            .get(opencl::build_options(ctx.info(), TR_F_SPHERES, false, entry_points), &built, &ms)
+            .program;
+    size_t size = 0;
+    REQUIRE(clGetProgramInfo(program, CL_PROGRAM_KERNEL_NAMES, 0, nullptr, &size) == CL_SUCCESS);
+    std::string names(size, '\0');
+    REQUIRE(clGetProgramInfo(program, CL_PROGRAM_KERNEL_NAMES, size, names.data(), nullptr) ==
+            CL_SUCCESS);
+    names.resize(std::strlen(names.c_str()));
+    std::vector<std::string> held;
+    for (size_t at = 0; at <= names.size();) {
+      size_t end = names.find(';', at);
+      if (end == std::string::npos) end = names.size();
+      if (end > at) held.push_back(names.substr(at, end - at));
+      at = end + 1;
+    }
+    std::sort(held.begin(), held.end());
+    CHECK(held == expected);
+  }
 }
 
 TEST_CASE("a CPU device reads the packed scene and writes the image in place") {

@@ -28,4 +28,14 @@
  * query (TR_COUNT_RAY in prelude.h). Never set by a render, never on the device. */
 #define TR_F_COUNT_RAYS 0x80000000u
 
+/* Which kernels an OpenCL program holds (-DTR_ENTRY_POINTS, kernels/render.cl): all,
+ * or only what one kind of render launches. PoCL compiles work-group code for every
+ * kernel of a program when its binary is read for the disk cache, so a program that
+ * holds one render's kernels is ready sooner (docs/performance.md, "PoCL program
+ * build, cold and cached"). */
+#define TR_ENTRY_ALL 0
+#define TR_ENTRY_RENDER 1   /* tr_kernel_render */
+#define TR_ENTRY_AOV 2      /* tr_kernel_aov */
+#define TR_ENTRY_ADAPTIVE 3 /* tr_kernel_adaptive_first, _mark and _refine */
+
 #endif /* TWINRAY_DEVICE_FEATURES_H */

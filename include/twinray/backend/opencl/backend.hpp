@@ -105,8 +105,12 @@ class OpenCLBackend final : public RenderBackend<T> {
     const DeviceInfo& dev = ctx_.info();
     bool built_now = false;
     double build_ms = 0;
-    ProgramCache::Entry& program =
-        ctx_.programs().get(build_options(dev, features, sizeof(T) == 8), &built_now, &build_ms);
+    // The program holds only the kernels this render launches (TR_ENTRY_*).
+    const int entry_points = p.adaptive_spp > 0                         ? TR_ENTRY_ADAPTIVE
+                             : request.options.output == Output::Shaded ? TR_ENTRY_RENDER
+                                                                        : TR_ENTRY_AOV;
+    ProgramCache::Entry& program = ctx_.programs().get(
+        build_options(dev, features, sizeof(T) == 8, entry_points), &built_now, &build_ms);
 
     const auto t0 = clock::now();
     const bool uploading = pending_ != nullptr;
