@@ -47,8 +47,19 @@ typedef float real;
 typedef float3 vec3;
 #define TR_VEC3(x, y, z) ((float3)((x), (y), (z)))
 #endif
+/* TR_FN_INLINE: always inlined, on both sides: the walk and the primitive tests, whose
+ * callers pass constants (BVH width, any hit or closest) that fold away. Left to PoCL,
+ * the walk stayed a call with both as run-time values: 6-16% of a frame.
+ * TR_FN_OUTLINE: kept out of line on OpenCL: the two ray queries, each with its walk
+ * inlined, so the kernel's work-group function stays small; inlined into it, a cold
+ * first frame took 2.7 s instead of 1.8-2.0 (docs/performance.md). */
 #define TR_FN static inline
+#ifdef TR_NO_ALWAYS_INLINE /* Oclgrind's runs: see tests/sanitizers/run_oclgrind.cmake */
 #define TR_FN_INLINE static inline
+#else
+#define TR_FN_INLINE static inline __attribute__((always_inline))
+#endif
+#define TR_FN_OUTLINE static __attribute__((noinline))
 #define TR_GLOBAL __global
 #define TR_COUNT_RAY() \
   do {                 \
@@ -64,6 +75,7 @@ typedef float3 vec3;
 #include <cmath>
 #include <glm/vec3.hpp>
 #define TR_FN static inline
+#define TR_FN_OUTLINE static inline
 #if defined(__GNUC__) || defined(__clang__)
 #define TR_FN_INLINE static inline __attribute__((always_inline))
 #else

@@ -38,7 +38,7 @@ TR_FN void tr_record_hit(const TrSceneRef* s, TrRay ray, TrNearest nearest, TrHi
  * Both entry points take the ray by pointer: passed by value, g++ stores the caller's
  * ray field by field and reloads it in 16-byte pieces for the call, a store-forwarding
  * stall on every ray (up to a tenth of a frame, docs/performance.md). */
-TR_FN int tr_closest_hit(const TrSceneRef* s, const TrRay* ray_in, real tmax, TrHit* hit) {
+TR_FN_OUTLINE int tr_closest_hit(const TrSceneRef* s, const TrRay* ray_in, real tmax, TrHit* hit) {
   TrRay ray = *ray_in;
   TrNearest nearest;
   nearest.t = tmax;
@@ -69,7 +69,7 @@ TR_FN int tr_closest_hit(const TrSceneRef* s, const TrRay* ray_in, real tmax, Tr
 }
 
 /* Is anything in (0, tmax) along the ray? Stops at the first hit and makes no record. */
-TR_FN int tr_any_hit(const TrSceneRef* s, const TrRay* ray_in, real tmax) {
+TR_FN_OUTLINE int tr_any_hit(const TrSceneRef* s, const TrRay* ray_in, real tmax) {
   TrRay ray = *ray_in;
   TR_COUNT_RAY();
   if (tr_use(s, TR_F_BVH)) {
