@@ -7,7 +7,8 @@
 # optimizer emits (the rotations of the samplers), and unoptimized code has every
 # access the source has. It is also built with -DTR_NO_ALWAYS_INLINE: clang's
 # always-inliner runs even unoptimized and emits llvm.experimental.noalias.scope.decl,
-# which Oclgrind 21.10 does not know either; inlining changes no memory access. The image must also be bit for bit the CPU backend's.
+# which Oclgrind 21.10 does not know either; inlining changes no memory access. The
+# image must also be bit for bit the CPU backend's.
 #   cmake -DTWINRAY=<exe> -DOCLGRIND=<exe> -DWORK_DIR=<dir> -DSCENE=<json|demo>
 #         -DARGS="<extra render args>" [-DUNINITIALIZED=ON] -P run_oclgrind.cmake
 cmake_minimum_required(VERSION 3.19)

@@ -221,7 +221,7 @@ int block_partition(std::vector<Elem>& v, int begin, int end, const IsLeft& is_l
       start_right = 0;
       for (int k = 0; k < kBlock; ++k) {
         wrong_right[n_right] = static_cast<unsigned char>(k);
-        n_right += is_left(v[static_cast<size_t>(r - 1 - k)]) ? 1 : 0;
+        n_right += is_left(v[static_cast<size_t>(r - 1 - k)]);
       }
     }
     const int swaps = std::min(n_left, n_right);

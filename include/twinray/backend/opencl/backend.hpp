@@ -105,7 +105,8 @@ class OpenCLBackend final : public RenderBackend<T> {
     const DeviceInfo& dev = ctx_.info();
     bool built_now = false;
     double build_ms = 0;
-    // The program holds only the kernels this render launches (TR_ENTRY_*).
+    // The program holds only the kernels this render launches (TR_ENTRY_*); the launch
+    // below follows the same choice.
     const int entry_points = p.adaptive_spp > 0                         ? TR_ENTRY_ADAPTIVE
                              : request.options.output == Output::Shaded ? TR_ENTRY_RENDER
                                                                         : TR_ENTRY_AOV;
@@ -139,7 +140,7 @@ class OpenCLBackend final : public RenderBackend<T> {
     else
       output_.reserve(ctx_.context(), CL_MEM_READ_WRITE, out_bytes, "clCreateBuffer (framebuffer)");
     long long refined = 0;
-    if (p.adaptive_spp > 0)
+    if (entry_points == TR_ENTRY_ADAPTIVE)
       refined = launch_adaptive(program.program, frame, &transfer_ms);
     else
       launch_uniform(program.program, request.options.output, p);
