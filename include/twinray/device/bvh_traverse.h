@@ -68,7 +68,7 @@ TR_FN_INLINE unsigned tr_ray_hits_boxes(TR_GLOBAL const real* boxes, const TrBox
   TR_GLOBAL const real* far_x = boxes + br->far_x * W;
   TR_GLOBAL const real* far_y = boxes + br->far_y * W;
   TR_GLOBAL const real* far_z = boxes + br->far_z * W;
-  int hit[TR_BVH_MAX_WIDTH];
+  unsigned mask = 0u;
   TR_SIMD_LOOP
   for (int k = 0; k < W; ++k) {
     real nx = (near_x[k] - br->o.x) * br->inv_d.x;
@@ -85,10 +85,10 @@ TR_FN_INLINE unsigned tr_ray_hits_boxes(TR_GLOBAL const real* boxes, const TrBox
     t1 = fy < t1 ? fy : t1;
     t1 = fz < t1 ? fz : t1;
     t_entry[k] = t0;
-    hit[k] = t0 <= t1;
+    /* Set in this loop, not from a stored array of flags: g++ then builds the mask
+     * with one vector shift and OR reduction instead of extracting W scalars. */
+    mask |= (unsigned)(t0 <= t1) << k;
   }
-  unsigned mask = 0u;
-  for (int k = 0; k < W; ++k) mask |= (unsigned)hit[k] << k;
   return mask;
 }
 
