@@ -91,11 +91,20 @@ TR_FN real tr_pow_unit(real x, real p) {
   real whole = floor(p);
   real frac = p - whole; /* exact */
   real base = x;
-  while (whole > TR_R(0.0) && result > TR_R(0.0)) {
+  /* Bit by bit from the lowest: as reals while the exponent has bits above 2^24, then
+   * as an int, which holds it exactly. The same steps either way; the int's halving
+   * is one shift, where PoCL compiles floor() to a dozen instructions. */
+  while (whole >= TR_R(16777216.0) && result > TR_R(0.0)) {
     real halved = floor(whole * TR_R(0.5));
     if (whole - halved * TR_R(2.0) > TR_R(0.0)) result = result * base;
     whole = halved;
-    if (whole > TR_R(0.0)) base = base * base;
+    base = base * base;
+  }
+  int bits = (int)whole;
+  while (bits > 0 && result > TR_R(0.0)) {
+    if ((bits & 1) != 0) result = result * base;
+    bits = bits >> 1;
+    if (bits > 0) base = base * base;
   }
   int digits = sizeof(real) == 4 ? 24 : 53;
   real root = x;
