@@ -2,7 +2,8 @@
 //   render()   twinray::render(scene, camera, options) every frame: packs the scene,
 //              builds its BVH and uploads it every time;
 //   backend    one backend from make_backend, the scene packed and set once, then
-//              backend->render({camera, lights, options}) every frame.
+//              backend->render_into({camera, lights, options}, image) every frame,
+//              into one image.
 // Rounds alternate between the two so that a drift of the machine's speed hits both.
 // Prints the median ms per frame of each, and their ratio.
 //
@@ -88,8 +89,9 @@ int main(int argc, char** argv) {
       t0 = std::chrono::steady_clock::now();
       auto backend = twinray::make_backend<float>(options);
       backend->set_scene(twinray::share(twinray::pack_scene(b.scene, backend->pack_options())));
+      twinray::Image<float> image;
       for (int i = 0; i < frames; ++i)
-        (void)backend->render({camera_at(b.camera, i), b.scene.lights, options});
+        backend->render_into({camera_at(b.camera, i), b.scene.lights, options}, image);
       reused.push_back(ms_since(t0) / frames);
     }
     double a = median(one_call), c = median(reused);

@@ -1,6 +1,6 @@
 // A frame loop that reuses one backend: the scene is packed and uploaded once, then
-// 60 frames of a camera circling it render with only the camera changing. Writes
-// every 15th frame to frame_loop_<n>.png and prints the time per frame.
+// 60 frames of a camera circling it render into one image with only the camera
+// changing. Writes every 15th frame to frame_loop_<n>.png and prints the time per frame.
 //
 //   frame_loop [--backend cpu|opencl|auto]
 #include <chrono>
@@ -33,12 +33,13 @@ int main(int argc, char** argv) {
 
     const int frames = 60;
     double total_ms = 0;
+    twinray::Image<float> image;  // one framebuffer for every frame
     for (int i = 0; i < frames; ++i) {
       const float angle = 6.2831853f * float(i) / float(frames);
       camera.position = {5.f * std::cos(angle), -1.5f, -1.f + 5.f * std::sin(angle)};
       twinray::RenderInfo info;
       auto t0 = std::chrono::steady_clock::now();
-      twinray::Image<float> image = backend->render({camera, scene.lights, options}, &info);
+      backend->render_into({camera, scene.lights, options}, image, &info);
       double ms =
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       total_ms += ms;

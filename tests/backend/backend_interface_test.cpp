@@ -1,9 +1,10 @@
 // The backend interface (backend/backend.hpp): rectangles give the same bits as the
 // whole frame on every backend, uniform and adaptive, shaded and AOVs; a backend
 // keeps its scene across frames that change only the camera, the lights or the
-// options; bad requests are refused.
+// options; render_into overwrites whatever image it is given; bad requests are refused.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <memory>
 #include <string>
 #include <vector>
@@ -183,4 +184,58 @@ TEST_CASE("backend: bad requests are refused before anything renders") {
     CHECK_THROWS_WITH_AS(renderer->render({d.camera, dark, RenderOptions{}}),
                          doctest::Contains("lights[0].intensity"), Error);
   }
+}
+
+// render_into reuses the caller's image: whatever it held before (other values, another
+// size, a larger or smaller buffer), the result is the bits of a fresh render().
+template <class T>
+void check_render_into(const RenderOptions& options) {
+  auto d = demo::make_demo_scene<T>(64, 48);
+  for (Backend b : backends()) {
+    INFO("backend " << to_string(b));
+    auto renderer = quiet_backend<T>(b);
+    renderer->set_scene(share(pack_scene(d.scene)));
+    const RenderRequest<T> whole{d.camera, d.scene.lights, options, {}};
+    const PixelRect r{7, 5, 20, 13};
+    const RenderRequest<T> part{d.camera, d.scene.lights, options, r};
+    const Image<T> expected = renderer->render(whole);
+    const Image<T> expected_part = renderer->render(part);
+
+    Image<T> image(64, 48);
+    std::fill(image.rgb.begin(), image.rgb.end(), T(-7.5));  // stale values everywhere
+    renderer->render_into(whole, image);
+    CHECK(test::differing_values(image, expected) == 0);
+    renderer->render_into(part, image);  // shrinks
+    CHECK(image.width == r.width);
+    CHECK(image.height == r.height);
+    CHECK(test::differing_values(image, expected_part) == 0);
+    renderer->render_into(whole, image);  // grows again
+    CHECK(test::differing_values(image, expected) == 0);
+
+    Image<T> larger(200, 100);
+    std::fill(larger.rgb.begin(), larger.rgb.end(), T(3));
+    renderer->render_into(whole, larger);
+    CHECK(test::differing_values(larger, expected) == 0);
+
+    // A refused request leaves the image as it was.
+    const Image<T> kept = image;
+    CHECK_THROWS_AS(
+        renderer->render_into({d.camera, d.scene.lights, options, PixelRect{60, 0, 8, 8}}, image),
+        Error);
+    CHECK(test::differing_values(image, kept) == 0);
+  }
+}
+
+TEST_CASE_TEMPLATE("backend: render_into a reused image gives a fresh render's bits", T, float,
+                   double) {
+  RenderOptions uniform;
+  uniform.spp = 2;
+  check_render_into<T>(uniform);
+  RenderOptions adaptive;
+  adaptive.spp = 1;
+  adaptive.adaptive_spp = 4;
+  check_render_into<T>(adaptive);
+  RenderOptions depth;
+  depth.output = Output::Depth;
+  check_render_into<T>(depth);
 }

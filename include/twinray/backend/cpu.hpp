@@ -83,14 +83,15 @@ class CpuBackend final : public RenderBackend<T> {
     scene_ = std::move(scene);
   }
 
-  Image<T> render(const RenderRequest<T>& request, RenderInfo* info = nullptr) override {
+  void render_into(const RenderRequest<T>& request, Image<T>& image,
+                   RenderInfo* info = nullptr) override {
     require_scene(scene_ != nullptr);
     const PackedFrame<T> frame = pack_frame(scene_->summary(), request);
     const auto t0 = std::chrono::steady_clock::now();
     const unsigned compiled =
         compiled_features(request.options.specialize ? frame.features : TR_F_ALL);
     const auto& p = frame.params;
-    Image<T> image(p.rect_w, p.rect_h);
+    image.resize(p.rect_w, p.rect_h);
     long long refined = 0;
     with_features(compiled, [&](auto features) {
       using K = typename device::Code<T>::template Kernel<decltype(features)::value>;
@@ -112,7 +113,6 @@ class CpuBackend final : public RenderBackend<T> {
       info->samples = sample_plan::samples_traced(
           request.options, static_cast<long long>(p.rect_w) * p.rect_h, refined);
     }
-    return image;
   }
 
  private:

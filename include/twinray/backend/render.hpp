@@ -90,17 +90,18 @@ class AutoBackend final : public RenderBackend<T> {
     active_->set_scene(std::move(scene));
   }
 
-  Image<T> render(const RenderRequest<T>& request, RenderInfo* info = nullptr) override {
-    if (active_->kind() == Backend::Cpu) return active_->render(request, info);
+  void render_into(const RenderRequest<T>& request, Image<T>& image,
+                   RenderInfo* info = nullptr) override {
+    if (active_->kind() == Backend::Cpu) return active_->render_into(request, image, info);
     try {
-      return active_->render(request, info);
+      return active_->render_into(request, image, info);
     } catch (const Error& e) {
       if (e.kind() == ErrorKind::InvalidInput) throw;
       log_note(options_,
                std::string("backend auto: OpenCL failed, using the CPU (") + e.what() + ")");
       active_ = std::make_unique<cpu::CpuBackend<T>>();
       active_->set_scene(scene_);
-      return active_->render(request, info);
+      return active_->render_into(request, image, info);
     }
   }
 

@@ -18,6 +18,14 @@ struct Image {
   Image() = default;
   // A black image of w x h pixels (w, h >= 0).
   Image(int w, int h) : width(w), height(h), rgb(static_cast<size_t>(w) * h * 3, T(0)) {}
+  // Makes the image w x h pixels, keeping its storage where that is large enough: the
+  // values are left as they were (zero where the image grew), for a renderer to
+  // overwrite.
+  void resize(int w, int h) {
+    width = w;
+    height = h;
+    rgb.resize(static_cast<size_t>(w) * h * 3, T(0));
+  }
   // The three values of pixel (x, y), x in [0, width), y in [0, height) from the top.
   // Not range-checked.
   T* pixel(int x, int y) { return &rgb[(static_cast<size_t>(y) * width + x) * 3]; }

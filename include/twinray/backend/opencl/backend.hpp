@@ -95,7 +95,8 @@ class OpenCLBackend final : public RenderBackend<T> {
   }
   const SceneBuffers& scene_buffers() const { return buffers_; }
 
-  Image<T> render(const RenderRequest<T>& request, RenderInfo* info = nullptr) override {
+  void render_into(const RenderRequest<T>& request, Image<T>& image,
+                   RenderInfo* info = nullptr) override {
     using clock = std::chrono::steady_clock;
     require_scene(has_scene_);
     const PackedFrame<T> frame = pack_frame(scene_, request);
@@ -133,7 +134,7 @@ class OpenCLBackend final : public RenderBackend<T> {
                   "OpenCL: the framebuffer needs " + std::to_string(out_bytes >> 20) +
                       " MiB, more than the device's largest allocation (" +
                       std::to_string(dev.max_alloc >> 20) + " MiB) on " + dev.name);
-    Image<T> image(p.rect_w, p.rect_h);
+    image.resize(p.rect_w, p.rect_h);
     if (in_place)
       output_.wrap(ctx_.context(), CL_MEM_READ_WRITE, image.rgb.data(), out_bytes,
                    "clCreateBuffer (framebuffer, host memory)");
@@ -158,7 +159,7 @@ class OpenCLBackend final : public RenderBackend<T> {
       check(clEnqueueUnmapMemObject(ctx_.queue(), output_.mem(), mapped, 0, nullptr, nullptr),
             "clEnqueueUnmapMemObject (framebuffer)");
       check(clFinish(ctx_.queue()), "clFinish");
-      output_.release();  // the image leaves with the caller
+      output_.release();  // the image is the caller's: wrap it afresh each render
     } else {
       check(clEnqueueReadBuffer(ctx_.queue(), output_.mem(), CL_TRUE, 0, out_bytes,
                                 image.rgb.data(), 0, nullptr, nullptr),
@@ -179,7 +180,6 @@ class OpenCLBackend final : public RenderBackend<T> {
       info->samples = sample_plan::samples_traced(
           request.options, static_cast<long long>(p.rect_w) * p.rect_h, refined);
     }
-    return image;
   }
 
  private:
