@@ -124,7 +124,8 @@ struct BasicBox {
       hi[a] = b.hi[a] > hi[a] ? R(b.hi[a]) : hi[a];
     }
   }
-  void grow(const double p[3]) {
+  template <class S>
+  void grow(const S p[3]) {
     for (int a = 0; a < 3; ++a) {
       lo[a] = p[a] < lo[a] ? R(p[a]) : lo[a];
       hi[a] = p[a] > hi[a] ? R(p[a]) : hi[a];
@@ -140,15 +141,17 @@ struct BasicBox {
 using Box = BasicBox<double>;
 
 // One primitive as the builder sees it: its bounds, outward-rounded to R, and its id.
-// The centroid is recomputed from the bounds where needed (in double: no overflow).
+// The centroid is recomputed from the bounds where needed, in R, halved before the sum
+// (no overflow). It need not be the exact midpoint: binning, partitioning and the
+// centroid bounds all compute it with this one function.
 template <class R>
 struct PrimRef {
   BasicBox<R> box;
   int id;
-  void centroid(double c[3]) const {
-    for (int a = 0; a < 3; ++a) c[a] = 0.5 * (double(box.lo[a]) + double(box.hi[a]));
+  void centroid(R c[3]) const {
+    for (int a = 0; a < 3; ++a) c[a] = R(0.5) * box.lo[a] + R(0.5) * box.hi[a];
   }
-  double centroid(int a) const { return 0.5 * (double(box.lo[a]) + double(box.hi[a])); }
+  R centroid(int a) const { return R(0.5) * box.lo[a] + R(0.5) * box.hi[a]; }
 };
 
 // v rounded to R toward -inf (down) or +inf (up): a box stays around what it bounds.
@@ -186,14 +189,17 @@ namespace detail {
 // Bounds and centroid bounds of refs[begin, end).
 template <class R>
 void bounds_of(const std::vector<PrimRef<R>>& refs, int begin, int end, Box* box, Box* cbox) {
-  *box = Box();
-  *cbox = Box();
+  BasicBox<R> b, cb;  // grown in R, converted once (exactly) at the end
   for (int i = begin; i < end; ++i) {
-    double c[3];
+    R c[3];
     refs[static_cast<size_t>(i)].centroid(c);
-    box->grow(refs[static_cast<size_t>(i)].box);
-    cbox->grow(c);
+    b.grow(refs[static_cast<size_t>(i)].box);
+    cb.grow(c);
   }
+  *box = Box();
+  box->grow(b);
+  *cbox = Box();
+  cbox->grow(cb);
 }
 
 // Moves the elements of v[begin, end) for which is_left holds before the others and
@@ -453,12 +459,16 @@ struct Builder {
     for (int b = 0; b < n_bins; ++b) child_box[b <= split ? 0 : 1].grow(bins[a][b].box);
     // Partition by bin_of, growing each side's centroid bounds on the way.
     auto left_side = [&](const PrimRef<R>& r) { return bin_of(r, a) <= split; };
-    child_cbox[0] = child_cbox[1] = Box();
     const int i = block_partition(refs, begin, end, left_side);
-    for (int k = begin; k < end; ++k) {
-      double c[3];
-      refs[static_cast<size_t>(k)].centroid(c);
-      child_cbox[k < i ? 0 : 1].grow(c);
+    BasicBox<R> cb[2];
+    for (int side = 0; side < 2; ++side) {
+      for (int k = side == 0 ? begin : i; k < (side == 0 ? i : end); ++k) {
+        R c[3];
+        refs[static_cast<size_t>(k)].centroid(c);
+        cb[side].grow(c);
+      }
+      child_cbox[side] = Box();
+      child_cbox[side].grow(cb[side]);
     }
     return i;
   }
