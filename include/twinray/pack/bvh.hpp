@@ -65,8 +65,7 @@ inline bool worth_building(long long n_spheres, long long n_triangles) {
 
 constexpr int kMaxDepth = TR_BVH_MAX_DEPTH;  // leaf depth cap of the binary tree
 constexpr int kMaxLeafSize = 8;              // SAH leaves hold at most this many primitives
-constexpr int kBins = 16;                    // SAH bins per axis
-constexpr int kAllAxesBelow = 4096;          // larger nodes bin along their widest axis only
+constexpr int kBins = 16;                    // SAH bins
 // SAH cost of visiting an inner node, relative to one primitive test: the walk tests
 // both children's boxes there, each about as dear as a sphere test. At 1 the builder
 // split down to 1.19 spheres per leaf (1.7M nodes for 1e6 spheres); at 2 leaves hold
@@ -367,9 +366,12 @@ struct Builder {
     return mid;
   }
 
-  // Binned SAH over all three axes. Returns the split position, or -1 for "make a
-  // leaf" (allowed only at kMaxLeafSize primitives or fewer); on a split, the
-  // children's bounds and centroid bounds.
+  // Binned SAH along the widest axis of the centroids, as pbrt-v4's BVHAggregate does.
+  // Binning all three axes below 4096 primitives found trees that rendered at most
+  // about 2% faster, for 13-20% more build time (docs/performance.md, "BVH build").
+  // Returns the split position, or -1 for "make a leaf" (allowed only at
+  // kMaxLeafSize primitives or fewer); on a split, the children's bounds and centroid
+  // bounds.
   int sah_split(int begin, int end, const Box& box, const Box& cbox, Box child_box[2],
                 Box child_cbox[2]) {
     int n = end - begin;
@@ -379,86 +381,74 @@ struct Builder {
     };
     // A node of n < kBins primitives gets n bins: most nodes are small (a tree of a
     // million primitives has about half a million of them), and setting up and
-    // sweeping 3 x 16 bins cost them more than binning their primitives (measured:
+    // sweeping 16 bins cost them more than binning their primitives (measured:
     // 30-40% of a 1e6-sphere build).
     const int n_bins = std::min(kBins, n);
-    // Nodes of kAllAxesBelow primitives or more are binned along the widest axis of
-    // their centroids only, as pbrt-v4's BVHAggregate does at every node: a third of
-    // the binning work where it is dearest; smaller nodes try all three axes in one pass.
-    const int widest = widest_axis(cbox);
-    const bool all_axes = n < kAllAxesBelow;
-    Bin bins[3][kBins];
-    double scale[3];
-    bool usable[3];
-    for (int a = 0; a < 3; ++a) {
-      double extent = cbox.hi[a] - cbox.lo[a];
-      usable[a] = extent > 0 && (all_axes || a == widest);
-      scale[a] = usable[a] ? n_bins / extent : 0;
-      for (int b = 0; b < n_bins; ++b) {
-        bins[a][b].box = BasicBox<R>();
-        bins[a][b].count = 0;
-      }
+    const int a = widest_axis(cbox);
+    const double extent = cbox.hi[a] - cbox.lo[a];
+    // All centroids coincide: no SAH split separates them.
+    if (!(extent > 0)) {
+      if (n <= kMaxLeafSize) return -1;
+      return median_split(begin, end, cbox, child_box, child_cbox);
+    }
+    const double scale = n_bins / extent;
+    const double lo = cbox.lo[a];
+    Bin bins[kBins];
+    for (int b = 0; b < n_bins; ++b) {
+      bins[b].box = BasicBox<R>();
+      bins[b].count = 0;
     }
     // The one bin computation: binning and the partition below both call it, so each
     // primitive goes to the side it was counted on.
-    auto bin_of = [&](const PrimRef<R>& r, int a) {
-      return std::min(n_bins - 1, static_cast<int>((r.centroid(a) - cbox.lo[a]) * scale[a]));
+    auto bin_of = [&](const PrimRef<R>& r) {
+      return std::min(n_bins - 1, static_cast<int>((r.centroid(a) - lo) * scale));
     };
-    auto add = [&](const PrimRef<R>& r, int a) {
-      Bin& bin = bins[a][bin_of(r, a)];
+    for (int i = begin; i < end; ++i) {
+      const PrimRef<R>& r = refs[static_cast<size_t>(i)];
+      Bin& bin = bins[bin_of(r)];
       bin.count++;
       bin.box.grow(r.box);
-    };
-    if (all_axes) {
-      for (int i = begin; i < end; ++i)
-        for (int a = 0; a < 3; ++a) add(refs[static_cast<size_t>(i)], a);
-    } else if (usable[widest]) {
-      for (int i = begin; i < end; ++i) add(refs[static_cast<size_t>(i)], widest);
     }
+    // Sweep from the right for the right-side areas, then from the left.
     double best_cost = std::numeric_limits<double>::infinity();
-    int best_axis = -1, best_bin = -1;
-    for (int a = 0; a < 3; ++a) {
-      if (!usable[a]) continue;
-      // Sweep from the right for the right-side areas, then from the left.
-      std::array<double, kBins> right_area{};
-      std::array<int, kBins> right_count{};
-      Box acc;
-      int count = 0;
-      for (int b = n_bins - 1; b > 0; --b) {
-        acc.grow(bins[a][b].box);
-        count += bins[a][b].count;
-        right_area[b] = acc.half_area();
-        right_count[b] = count;
-      }
-      acc = Box();
-      count = 0;
-      for (int b = 0; b < n_bins - 1; ++b) {
-        acc.grow(bins[a][b].box);
-        count += bins[a][b].count;
-        if (count == 0 || right_count[b + 1] == 0) continue;
-        double cost = acc.half_area() * count + right_area[b + 1] * right_count[b + 1];
-        if (cost < best_cost) {
-          best_cost = cost;
-          best_axis = a;
-          best_bin = b;
-        }
+    int split = -1;
+    std::array<double, kBins> right_area{};
+    std::array<int, kBins> right_count{};
+    Box acc;
+    int count = 0;
+    for (int b = n_bins - 1; b > 0; --b) {
+      acc.grow(bins[b].box);
+      count += bins[b].count;
+      right_area[b] = acc.half_area();
+      right_count[b] = count;
+    }
+    acc = Box();
+    count = 0;
+    for (int b = 0; b < n_bins - 1; ++b) {
+      acc.grow(bins[b].box);
+      count += bins[b].count;
+      if (count == 0 || right_count[b + 1] == 0) continue;
+      double cost = acc.half_area() * count + right_area[b + 1] * right_count[b + 1];
+      if (cost < best_cost) {
+        best_cost = cost;
+        split = b;
       }
     }
     double area = box.half_area();
     double leaf_cost = static_cast<double>(n);
-    if (best_axis < 0) {
-      // All centroids coincide: no SAH split separates them.
+    if (split < 0) {
+      // Every primitive fell in one bin (centroids a rounding apart): no bin boundary
+      // separates them.
       if (n <= kMaxLeafSize) return -1;
       return median_split(begin, end, cbox, child_box, child_cbox);
     }
     double split_cost = kTraversalCost + (area > 0 ? best_cost / area : static_cast<double>(n));
     if (n <= kMaxLeafSize && leaf_cost <= split_cost) return -1;
     // The children's boxes are unions of their bins' boxes.
-    const int a = best_axis, split = best_bin;
     child_box[0] = child_box[1] = Box();
-    for (int b = 0; b < n_bins; ++b) child_box[b <= split ? 0 : 1].grow(bins[a][b].box);
-    // Partition by bin_of, growing each side's centroid bounds on the way.
-    auto left_side = [&](const PrimRef<R>& r) { return bin_of(r, a) <= split; };
+    for (int b = 0; b < n_bins; ++b) child_box[b <= split ? 0 : 1].grow(bins[b].box);
+    // Partition by bin_of, then each side's centroid bounds.
+    auto left_side = [&](const PrimRef<R>& r) { return bin_of(r) <= split; };
     const int i = block_partition(refs, begin, end, left_side);
     BasicBox<R> cb[2];
     for (int side = 0; side < 2; ++side) {
