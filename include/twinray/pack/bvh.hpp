@@ -185,7 +185,21 @@ struct Stats {
 
 namespace detail {
 
-// Bounds and centroid bounds of refs[begin, end).
+// Centroid bounds of refs[begin, end), grown in R and converted once (exactly).
+template <class R>
+Box centroid_bounds(const std::vector<PrimRef<R>>& refs, int begin, int end) {
+  BasicBox<R> cb;
+  for (int i = begin; i < end; ++i) {
+    R c[3];
+    refs[static_cast<size_t>(i)].centroid(c);
+    cb.grow(c);
+  }
+  Box out;
+  out.grow(cb);
+  return out;
+}
+
+// Bounds and centroid bounds of refs[begin, end), in one pass.
 template <class R>
 void bounds_of(const std::vector<PrimRef<R>>& refs, int begin, int end, Box* box, Box* cbox) {
   BasicBox<R> b, cb;  // grown in R, converted once (exactly) at the end
@@ -384,13 +398,13 @@ struct Builder {
     // sweeping 16 bins cost them more than binning their primitives (measured:
     // 30-40% of a 1e6-sphere build).
     const int n_bins = std::min(kBins, n);
+    // Where no bin boundary separates the primitives: a leaf if they fit, else halves.
+    auto no_sah_split = [&] {
+      return n <= kMaxLeafSize ? -1 : median_split(begin, end, cbox, child_box, child_cbox);
+    };
     const int a = widest_axis(cbox);
     const double extent = cbox.hi[a] - cbox.lo[a];
-    // All centroids coincide: no SAH split separates them.
-    if (!(extent > 0)) {
-      if (n <= kMaxLeafSize) return -1;
-      return median_split(begin, end, cbox, child_box, child_cbox);
-    }
+    if (!(extent > 0)) return no_sah_split();  // all centroids coincide
     const double scale = n_bins / extent;
     const double lo = cbox.lo[a];
     Bin bins[kBins];
@@ -436,12 +450,7 @@ struct Builder {
     }
     double area = box.half_area();
     double leaf_cost = static_cast<double>(n);
-    if (split < 0) {
-      // Every primitive fell in one bin (centroids a rounding apart): no bin boundary
-      // separates them.
-      if (n <= kMaxLeafSize) return -1;
-      return median_split(begin, end, cbox, child_box, child_cbox);
-    }
+    if (split < 0) return no_sah_split();  // every primitive fell in one bin
     double split_cost = kTraversalCost + (area > 0 ? best_cost / area : static_cast<double>(n));
     if (n <= kMaxLeafSize && leaf_cost <= split_cost) return -1;
     // The children's boxes are unions of their bins' boxes.
@@ -450,16 +459,8 @@ struct Builder {
     // Partition by bin_of, then each side's centroid bounds.
     auto left_side = [&](const PrimRef<R>& r) { return bin_of(r) <= split; };
     const int i = block_partition(refs, begin, end, left_side);
-    BasicBox<R> cb[2];
-    for (int side = 0; side < 2; ++side) {
-      for (int k = side == 0 ? begin : i; k < (side == 0 ? i : end); ++k) {
-        R c[3];
-        refs[static_cast<size_t>(k)].centroid(c);
-        cb[side].grow(c);
-      }
-      child_cbox[side] = Box();
-      child_cbox[side].grow(cb[side]);
-    }
+    child_cbox[0] = centroid_bounds(refs, begin, i);
+    child_cbox[1] = centroid_bounds(refs, i, end);
     return i;
   }
 };
