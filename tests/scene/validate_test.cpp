@@ -5,6 +5,7 @@
 #include <cmath>
 #include <string>
 
+#include <twinray/core/parallel.hpp>
 #include <twinray/scene/validate.hpp>
 
 #include "support/refusal.hpp"
@@ -97,6 +98,35 @@ TEST_CASE("scene refusals name the object and the problem") {
   s.background = glm::vec3(0, 2, 0);
   CHECK(refusal([&] { validate(s); }) == "image.background[1]: must be in [0, 1], got 2");
   CHECK_NOTHROW(validate(one_sphere()));
+}
+
+TEST_CASE("the first bad object is named, whatever the thread count") {
+  // Objects are checked in chunks of 4096 on every thread. The first bad object is the
+  // last of its chunk, and the next chunks start with bad ones, which threads that
+  // take those chunks find first.
+  Scene<float> s;
+  s.add_material({});
+  for (int i = 0; i < 20000; ++i) s.add(Sphere<float>{{float(i), 0, -5}, 0.25f, 0});
+  std::get<Sphere<float>>(s.objects[8191]).material = 7;
+  std::get<Sphere<float>>(s.objects[8192]).radius = 0;
+  std::get<Sphere<float>>(s.objects[12288]).center.y = NAN;
+  std::get<Sphere<float>>(s.objects[16384]).radius = -2;
+  for (int threads : {1, 2, 3, 8}) {
+    CAPTURE(threads);
+    set_thread_count(threads);
+    CHECK(refusal([&] { validate(s); }) ==
+          "objects[8191].material: no material with index 7 (1 defined)");
+  }
+  std::get<Sphere<float>>(s.objects[8191]).material = 0;
+  std::get<Sphere<float>>(s.objects[8192]).radius = 0.25f;
+  for (int threads : {1, 8}) {
+    CAPTURE(threads);
+    set_thread_count(threads);
+    CHECK(refusal([&] {
+            validate(s);
+          }).find("objects[12288].center: must be finite, got [12288, ") == 0);
+  }
+  set_thread_count(0);
 }
 
 TEST_CASE("option refusals") {

@@ -151,14 +151,6 @@ struct PackedFrame {
 
 namespace detail {
 
-template <class T>
-bool any_mesh_attributes(const Scene<T>& scene) {
-  for (const Object<T>& o : scene.objects)
-    if (auto* m = std::get_if<Mesh<T>>(&o))
-      if (!m->normal_triangles.empty() || !m->uv_triangles.empty()) return true;
-  return false;
-}
-
 // Triangle f's vertex normals and uvs, where the mesh gives them.
 template <class T, class Attr>
 void pack_attributes(const Mesh<T>& m, size_t f, Attr& a) {
@@ -201,41 +193,77 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
     ps.textures.push_back({t.width, t.height, static_cast<int>(ps.texels.size()), 0});
     ps.texels.insert(ps.texels.end(), t.texels.begin(), t.texels.end());
   }
-  const bool with_attrs = detail::any_mesh_attributes(scene);
-  // Sized once: growing by doubling copied each array about twice over (1e6 spheres).
-  size_t sphere_count = 0, triangle_count = 0;
-  for (const Object<T>& o : scene.objects) {
-    if (std::holds_alternative<Sphere<T>>(o)) ++sphere_count;
-    if (std::holds_alternative<Triangle<T>>(o)) ++triangle_count;
-    if (auto* m = std::get_if<Mesh<T>>(&o)) triangle_count += m->triangles.size();
-  }
-  ps.spheres.reserve(sphere_count);
-  ps.triangles.reserve(triangle_count);
-  if (with_attrs) ps.triangle_attrs.reserve(triangle_count);
-  for (size_t i = 0; i < scene.objects.size(); ++i) {
-    int object = static_cast<int>(i);
-    const Object<T>& o = scene.objects[i];
-    auto add_triangle = [&](const glm::vec<3, T>& a, const glm::vec<3, T>& b,
-                            const glm::vec<3, T>& c, int material) {
-      ps.triangles.push_back({a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z, material, object});
-      if (with_attrs) ps.triangle_attrs.push_back({});  // flags 0: flat, no uv
-    };
-    if (auto* s = std::get_if<Sphere<T>>(&o)) {
-      ps.spheres.push_back(
-          {s->center.x, s->center.y, s->center.z, s->radius, s->material, object, 0, 0});
-    } else if (auto* t = std::get_if<Triangle<T>>(&o)) {
-      add_triangle(t->vertices[0], t->vertices[1], t->vertices[2], t->material);
-    } else if (auto* p = std::get_if<Plane<T>>(&o)) {
-      glm::vec<3, T> n = glm::normalize(p->normal);
-      ps.planes.push_back({p->point.x, p->point.y, p->point.z, n.x, n.y, n.z, p->material, object});
-    } else if (auto* m = std::get_if<Mesh<T>>(&o)) {
-      for (size_t f = 0; f < m->triangles.size(); ++f) {
-        const auto& v = m->triangles[f];
-        add_triangle(m->vertices[v[0]], m->vertices[v[1]], m->vertices[v[2]], m->material_of(f));
-        if (with_attrs) detail::pack_attributes(*m, f, ps.triangle_attrs.back());
+  // Objects in chunks on every thread: first each chunk's counts (a scan gives every
+  // chunk its place in each array), then the copies. The arrays list primitives in
+  // object order, whatever the thread count.
+  constexpr size_t kChunk = 4096;
+  const size_t n_objects = scene.objects.size();
+  const size_t n_chunks = (n_objects + kChunk - 1) / kChunk;
+  struct Counts {
+    size_t spheres = 0, triangles = 0, planes = 0;
+    bool attributes = false;
+  };
+  std::vector<Counts> start(n_chunks + 1);
+  parallel_for(static_cast<int>(n_chunks), 1, [&](int c) {
+    Counts& n = start[static_cast<size_t>(c) + 1];
+    const size_t end = std::min(n_objects, (static_cast<size_t>(c) + 1) * kChunk);
+    for (size_t i = static_cast<size_t>(c) * kChunk; i < end; ++i) {
+      const Object<T>& o = scene.objects[i];
+      if (std::holds_alternative<Sphere<T>>(o)) ++n.spheres;
+      if (std::holds_alternative<Triangle<T>>(o)) ++n.triangles;
+      if (std::holds_alternative<Plane<T>>(o)) ++n.planes;
+      if (auto* m = std::get_if<Mesh<T>>(&o)) {
+        n.triangles += m->triangles.size();
+        n.attributes = n.attributes || !m->normal_triangles.empty() || !m->uv_triangles.empty();
       }
     }
+  });
+  bool with_attrs = false;
+  for (size_t c = 1; c <= n_chunks; ++c) {
+    with_attrs = with_attrs || start[c].attributes;
+    start[c].spheres += start[c - 1].spheres;
+    start[c].triangles += start[c - 1].triangles;
+    start[c].planes += start[c - 1].planes;
   }
+  ps.spheres.resize(start[n_chunks].spheres);
+  ps.triangles.resize(start[n_chunks].triangles);
+  ps.planes.resize(start[n_chunks].planes);
+  if (with_attrs) ps.triangle_attrs.resize(start[n_chunks].triangles);  // flags 0: flat, no uv
+  parallel_for(static_cast<int>(n_chunks), 1, [&](int c) {
+    Counts at = start[static_cast<size_t>(c)];
+    const size_t end = std::min(n_objects, (static_cast<size_t>(c) + 1) * kChunk);
+    for (size_t i = static_cast<size_t>(c) * kChunk; i < end; ++i) {
+      const int object = static_cast<int>(i);
+      const Object<T>& o = scene.objects[i];
+      auto triangle = [object](const glm::vec<3, T>& a, const glm::vec<3, T>& b,
+                               const glm::vec<3, T>& c, int material) {
+        return typename device::Code<T>::Triangle{a.x, a.y, a.z, b.x,      b.y,   b.z,
+                                                  c.x, c.y, c.z, material, object};
+      };
+      if (auto* s = std::get_if<Sphere<T>>(&o)) {
+        ps.spheres[at.spheres++] = {s->center.x, s->center.y, s->center.z, s->radius,
+                                    s->material, object,      0,           0};
+      } else if (auto* t = std::get_if<Triangle<T>>(&o)) {
+        ps.triangles[at.triangles++] =
+            triangle(t->vertices[0], t->vertices[1], t->vertices[2], t->material);
+      } else if (auto* p = std::get_if<Plane<T>>(&o)) {
+        glm::vec<3, T> n = glm::normalize(p->normal);
+        ps.planes[at.planes++] = {p->point.x, p->point.y, p->point.z,  n.x,
+                                  n.y,        n.z,        p->material, object};
+      } else if (auto* m = std::get_if<Mesh<T>>(&o)) {
+        // A mesh's faces on every thread too: a scene is often one big mesh.
+        const size_t first = at.triangles;
+        parallel_for(static_cast<int>(m->triangles.size()), 8192, [&](int face) {
+          const size_t f = static_cast<size_t>(face);
+          const auto& v = m->triangles[f];
+          ps.triangles[first + f] =
+              triangle(m->vertices[v[0]], m->vertices[v[1]], m->vertices[v[2]], m->material_of(f));
+          if (with_attrs) detail::pack_attributes(*m, f, ps.triangle_attrs[first + f]);
+        });
+        at.triangles += m->triangles.size();
+      }
+    }
+  });
 
   const bool with_bvh =
       bvh == BvhPolicy::Always ||

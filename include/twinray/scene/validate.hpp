@@ -3,8 +3,11 @@
 // scene file would use (`objects[3].radius: must be > 0, got -1`).
 #pragma once
 
+#include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
+#include <exception>
 #include <vector>
 #include <sstream>
 #include <string>
@@ -14,6 +17,7 @@
 
 #include <twinray/core/error.hpp>
 #include <twinray/core/options.hpp>
+#include <twinray/core/parallel.hpp>
 #include <twinray/scene/camera.hpp>
 #include <twinray/scene/scene.hpp>
 
@@ -190,6 +194,55 @@ void validate(const Camera<T>& camera) {
     detail::require_range("camera.focal_length", *camera.focal_length, T(0), T(INFINITY), true);
 }
 
+namespace detail {
+
+// Object i of the scene: finite geometry, radius > 0, non-zero plane normal, indices in
+// range (validate_geometry).
+template <class T>
+void validate_object(const Scene<T>& scene, size_t i) {
+  // Paths are made only for a value that is refused (detail::path_text).
+  auto base = [i] { return at("objects", i); };
+  auto field = [&base](const char* name) { return [&base, name] { return base() + name; }; };
+  auto check_material = [&](int material) {
+    if (material < 0 || static_cast<size_t>(material) >= scene.materials.size())
+      refuse(base() + ".material", "no material with index " + std::to_string(material) + " (" +
+                                       std::to_string(scene.materials.size()) + " defined)");
+  };
+  const Object<T>& object = scene.objects[i];
+  if (auto* s = std::get_if<Sphere<T>>(&object)) {
+    detail::require_finite(field(".center"), s->center);
+    detail::require_range(field(".radius"), s->radius, T(0), T(INFINITY), true);
+    check_material(s->material);
+  } else if (auto* t = std::get_if<Triangle<T>>(&object)) {
+    for (int v = 0; v < 3; ++v)
+      detail::require_finite([&] { return base() + ".vertices[" + std::to_string(v) + "]"; },
+                             t->vertices[v]);
+    check_material(t->material);
+  } else if (auto* p = std::get_if<Plane<T>>(&object)) {
+    detail::require_finite(field(".point"), p->point);
+    detail::require_finite(field(".normal"), p->normal);
+    T len = glm::length(p->normal);
+    if (!(len > T(0)) || !std::isfinite(len))
+      refuse(base() + ".normal", "must be non-zero, got " + detail::format_vec(p->normal));
+    check_material(p->material);
+  } else if (auto* m = std::get_if<Mesh<T>>(&object)) {
+    for (size_t v = 0; v < m->vertices.size(); ++v)
+      detail::require_finite([&] { return at(base() + ".vertices", v); }, m->vertices[v]);
+    for (size_t f = 0; f < m->triangles.size(); ++f)
+      for (int k = 0; k < 3; ++k) {
+        int index = m->triangles[f][k];
+        if (index < 0 || static_cast<size_t>(index) >= m->vertices.size())
+          refuse(at(base() + ".triangles", f) + "[" + std::to_string(k) + "]",
+                 "vertex index " + std::to_string(index) + " out of range (" +
+                     std::to_string(m->vertices.size()) + " vertices)");
+      }
+    check_material(m->material);
+    detail::validate_mesh_attributes(base(), *m, scene.materials.size());
+  }
+}
+
+}  // namespace detail
+
 // Geometry and materials: finite geometry, radii > 0, non-zero plane normals, mesh,
 // material and texture indices in range, unit vertex normals, finite uvs, texels in [0, 1];
 // material and background colors in [0, 1]; ka, kd, ks and shininess >= 0; glaze in [0, 1].
@@ -220,47 +273,29 @@ void validate_geometry(const Scene<T>& scene) {
   // The device code indexes all texels with an int (device/texture.h).
   if (texels > 0x7fffffffll)
     refuse("textures", "hold " + std::to_string(texels) + " values in all, more than 2^31 - 1");
-  for (size_t i = 0; i < scene.objects.size(); ++i) {
-    // Paths are made only for a value that is refused (detail::path_text).
-    auto base = [i] { return at("objects", i); };
-    auto field = [&base](const char* name) { return [&base, name] { return base() + name; }; };
-    auto check_material = [&](int material) {
-      if (material < 0 || static_cast<size_t>(material) >= scene.materials.size())
-        refuse(base() + ".material", "no material with index " + std::to_string(material) + " (" +
-                                         std::to_string(scene.materials.size()) + " defined)");
-    };
-    const Object<T>& object = scene.objects[i];
-    if (auto* s = std::get_if<Sphere<T>>(&object)) {
-      detail::require_finite(field(".center"), s->center);
-      detail::require_range(field(".radius"), s->radius, T(0), T(INFINITY), true);
-      check_material(s->material);
-    } else if (auto* t = std::get_if<Triangle<T>>(&object)) {
-      for (int v = 0; v < 3; ++v)
-        detail::require_finite([&] { return base() + ".vertices[" + std::to_string(v) + "]"; },
-                               t->vertices[v]);
-      check_material(t->material);
-    } else if (auto* p = std::get_if<Plane<T>>(&object)) {
-      detail::require_finite(field(".point"), p->point);
-      detail::require_finite(field(".normal"), p->normal);
-      T len = glm::length(p->normal);
-      if (!(len > T(0)) || !std::isfinite(len))
-        refuse(base() + ".normal", "must be non-zero, got " + detail::format_vec(p->normal));
-      check_material(p->material);
-    } else if (auto* m = std::get_if<Mesh<T>>(&object)) {
-      for (size_t v = 0; v < m->vertices.size(); ++v)
-        detail::require_finite([&] { return at(base() + ".vertices", v); }, m->vertices[v]);
-      for (size_t f = 0; f < m->triangles.size(); ++f)
-        for (int k = 0; k < 3; ++k) {
-          int index = m->triangles[f][k];
-          if (index < 0 || static_cast<size_t>(index) >= m->vertices.size())
-            refuse(at(base() + ".triangles", f) + "[" + std::to_string(k) + "]",
-                   "vertex index " + std::to_string(index) + " out of range (" +
-                       std::to_string(m->vertices.size()) + " vertices)");
-        }
-      check_material(m->material);
-      detail::validate_mesh_attributes(base(), *m, scene.materials.size());
+  // Objects in chunks on every thread (a scene of a million spheres is a few hundred
+  // MB of objects to read); each chunk stops at its first bad object, and the error
+  // of the lowest such chunk is the one reported, so the message does not depend on
+  // the thread count.
+  constexpr size_t kChunk = 4096;
+  const size_t n_chunks = (scene.objects.size() + kChunk - 1) / kChunk;
+  std::vector<std::exception_ptr> errors(n_chunks);
+  std::atomic<size_t> first_bad{n_chunks};
+  parallel_for(static_cast<int>(n_chunks), 1, [&](int c) {
+    const size_t chunk = static_cast<size_t>(c);
+    if (first_bad.load(std::memory_order_relaxed) < chunk) return;  // an earlier one failed
+    try {
+      const size_t end = std::min(scene.objects.size(), (chunk + 1) * kChunk);
+      for (size_t i = chunk * kChunk; i < end; ++i) detail::validate_object(scene, i);
+    } catch (...) {
+      errors[chunk] = std::current_exception();
+      size_t seen = first_bad.load();
+      while (chunk < seen && !first_bad.compare_exchange_weak(seen, chunk)) {
+      }
     }
-  }
+  });
+  const size_t bad = first_bad.load();
+  if (bad < n_chunks) std::rethrow_exception(errors[bad]);
 }
 
 // Lights: finite positions, intensities and colors >= 0, and a finite product of the two.
