@@ -315,6 +315,9 @@ struct Builder {
     // so the result does not depend on the thread count.
     std::vector<Node> sub[2] = {std::vector<Node>(1), std::vector<Node>(1)};
     parallel_for(2, 1, [&](int side) {
+      // As many nodes as primitives, as for the whole tree (build_binary): growing by
+      // doubling copied each half's nodes and touched fresh pages again.
+      sub[side].reserve(static_cast<size_t>(side == 0 ? mid - begin : end - mid));
       build(sub[side], 0, side == 0 ? begin : mid, side == 0 ? mid : end, depth + 1,
             child_box[side], child_cbox[side]);
     });
