@@ -1,6 +1,7 @@
 // The one parallel-for (core/parallel.hpp).
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <mutex>
@@ -30,6 +31,37 @@ TEST_CASE("parallel_for: every index once, for any count, grain and thread count
         int wrong = 0;
         for (auto& s : seen) wrong += s.load() != 1;
         CHECK(wrong == 0);
+      }
+    }
+  }
+}
+
+TEST_CASE("parallel_for_blocks: consecutive blocks cover every index once") {
+  for (int threads : {1, 3}) {
+    ThreadCount tc(threads);
+    for (size_t count : {0, 1, 7, 64, 1000}) {
+      for (size_t block : {1, 3, 64, 5000}) {
+        CAPTURE(count);
+        CAPTURE(block);
+        const size_t blocks = twinray::block_count(count, block);
+        CHECK(blocks * block >= count);
+        CHECK((blocks == 0 || (blocks - 1) * block < count));
+        std::vector<std::atomic<int>> seen(count), calls(blocks);
+        int misplaced = 0;
+        std::mutex m;
+        twinray::parallel_for_blocks(count, block, [&](size_t b, size_t begin, size_t end) {
+          calls[b]++;
+          if (begin != b * block || end != std::min(count, begin + block) || begin >= end) {
+            std::lock_guard<std::mutex> lock(m);
+            ++misplaced;
+          }
+          for (size_t i = begin; i < end; ++i) seen[i]++;
+        });
+        int wrong = 0;
+        for (auto& s : seen) wrong += s.load() != 1;
+        for (auto& c : calls) wrong += c.load() != 1;
+        CHECK(wrong == 0);
+        CHECK(misplaced == 0);
       }
     }
   }

@@ -14,6 +14,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cstddef>
 #include <atomic>
 #include <exception>
 #include <mutex>
@@ -82,6 +83,22 @@ void parallel_for(int count, int grain, Body&& body) {
   work();
   for (std::thread& t : pool) t.join();
   if (error) std::rethrow_exception(error);
+}
+
+// How many blocks of `block` consecutive indices cover [0, count).
+inline size_t block_count(size_t count, size_t block) {
+  return (count + block - 1) / block;
+}
+
+// Calls body(b, begin, end) for each block b = [begin, end) of `block` consecutive
+// indices covering [0, count) (the last one may be shorter), on parallel_for's threads:
+// for passes that keep one result per block and combine them in block order.
+template <class Body>
+void parallel_for_blocks(size_t count, size_t block, Body&& body) {
+  parallel_for(static_cast<int>(block_count(count, block)), 1, [&](int b) {
+    const size_t begin = static_cast<size_t>(b) * block;
+    body(static_cast<size_t>(b), begin, std::min(count, begin + block));
+  });
 }
 
 }  // namespace twinray

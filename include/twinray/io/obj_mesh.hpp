@@ -593,13 +593,12 @@ void triangulate_obj_polygons(Mesh<T>& mesh, const std::vector<ObjPolygon>& poly
   for (const ObjPolygon& p : polygons) polygon_triangles += p.corners - 2;
   const long long budget = 200000000ll + 256ll * polygon_triangles;
   std::atomic<long long> spent{0};
-  constexpr int kGrain = 4096;
-  parallel_for(static_cast<int>((polygons.size() + kGrain - 1) / kGrain), 1, [&](int block) {
+  constexpr size_t kGrain = 4096;
+  parallel_for_blocks(polygons.size(), kGrain, [&](size_t, size_t first, size_t last) {
     std::vector<glm::dvec3> points;
     std::vector<std::array<int, 3>> cut;
     std::vector<int> v, vt, vn;
-    const size_t first = static_cast<size_t>(block) * kGrain;
-    for (size_t i = first; i < std::min(polygons.size(), first + kGrain); ++i) {
+    for (size_t i = first; i < last; ++i) {
       const ObjPolygon& polygon = polygons[i];
       const size_t t0 = static_cast<size_t>(polygon.first_triangle);
       const int n = polygon.corners;
@@ -638,14 +637,11 @@ void triangulate_obj_polygons(Mesh<T>& mesh, const std::vector<ObjPolygon>& poly
 template <class T>
 void settle_obj_attributes(Mesh<T>& mesh) {
   const std::array<int, 3> none{-1, -1, -1};
-  const long long n = static_cast<long long>(mesh.triangles.size());
-  constexpr long long kGrain = 1 << 16;
-  const int blocks = static_cast<int>((n + kGrain - 1) / kGrain);
-  std::vector<char> any_normals(static_cast<size_t>(blocks)), any_uvs(static_cast<size_t>(blocks));
+  constexpr size_t kGrain = 1 << 16;
+  const size_t blocks = block_count(mesh.triangles.size(), kGrain);
+  std::vector<char> any_normals(blocks), any_uvs(blocks);
   const glm::vec<3, T> zero(T(0));
-  parallel_for(blocks, 1, [&](int block) {
-    const size_t first = static_cast<size_t>(block * kGrain);
-    const size_t last = static_cast<size_t>(std::min(n, (block + 1) * kGrain));
+  parallel_for_blocks(mesh.triangles.size(), kGrain, [&](size_t block, size_t first, size_t last) {
     for (size_t t = first; t < last; ++t) {
       if (!mesh.normal_triangles.empty()) {
         auto& c = mesh.normal_triangles[t];

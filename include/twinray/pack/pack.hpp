@@ -198,16 +198,15 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
   // object order, whatever the thread count.
   constexpr size_t kChunk = 4096;
   const size_t n_objects = scene.objects.size();
-  const size_t n_chunks = (n_objects + kChunk - 1) / kChunk;
+  const size_t n_chunks = block_count(n_objects, kChunk);
   struct Counts {
     size_t spheres = 0, triangles = 0, planes = 0;
     bool attributes = false;
   };
   std::vector<Counts> start(n_chunks + 1);
-  parallel_for(static_cast<int>(n_chunks), 1, [&](int c) {
-    Counts& n = start[static_cast<size_t>(c) + 1];
-    const size_t end = std::min(n_objects, (static_cast<size_t>(c) + 1) * kChunk);
-    for (size_t i = static_cast<size_t>(c) * kChunk; i < end; ++i) {
+  parallel_for_blocks(n_objects, kChunk, [&](size_t chunk, size_t begin, size_t end) {
+    Counts& n = start[chunk + 1];
+    for (size_t i = begin; i < end; ++i) {
       const Object<T>& o = scene.objects[i];
       if (std::holds_alternative<Sphere<T>>(o)) ++n.spheres;
       if (std::holds_alternative<Triangle<T>>(o)) ++n.triangles;
@@ -229,10 +228,9 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
   ps.triangles.resize(start[n_chunks].triangles);
   ps.planes.resize(start[n_chunks].planes);
   if (with_attrs) ps.triangle_attrs.resize(start[n_chunks].triangles);  // flags 0: flat, no uv
-  parallel_for(static_cast<int>(n_chunks), 1, [&](int c) {
-    Counts at = start[static_cast<size_t>(c)];
-    const size_t end = std::min(n_objects, (static_cast<size_t>(c) + 1) * kChunk);
-    for (size_t i = static_cast<size_t>(c) * kChunk; i < end; ++i) {
+  parallel_for_blocks(n_objects, kChunk, [&](size_t chunk, size_t begin, size_t end) {
+    Counts at = start[chunk];
+    for (size_t i = begin; i < end; ++i) {
       const int object = static_cast<int>(i);
       const Object<T>& o = scene.objects[i];
       auto triangle = [object](const glm::vec<3, T>& a, const glm::vec<3, T>& b,

@@ -140,10 +140,9 @@ void smooth_normals(Mesh<T>& mesh, double crease_degrees = 60.0) {
     bool valid;
   };
   std::vector<Face> faces(nf);
-  constexpr int kFaceChunk = 4096;
-  parallel_for(int((nf + kFaceChunk - 1) / kFaceChunk), 1, [&](int chunk) {
-    const size_t end = std::min(nf, size_t(chunk + 1) * kFaceChunk);
-    for (size_t f = size_t(chunk) * kFaceChunk; f < end; ++f) {
+  constexpr size_t kFaceChunk = 4096;
+  parallel_for_blocks(nf, kFaceChunk, [&](size_t, size_t begin, size_t end) {
+    for (size_t f = begin; f < end; ++f) {
       const auto& t = mesh.triangles[f];
       dvec3 p0(mesh.vertices[t[0]]), p1(mesh.vertices[t[1]]), p2(mesh.vertices[t[2]]);
       dvec3 a = p1 - p0, b = p2 - p1, c = p0 - p2;

@@ -278,15 +278,13 @@ void validate_geometry(const Scene<T>& scene) {
   // of the lowest such chunk is the one reported, so the message does not depend on
   // the thread count.
   constexpr size_t kChunk = 4096;
-  const size_t n_chunks = (scene.objects.size() + kChunk - 1) / kChunk;
+  const size_t n_chunks = block_count(scene.objects.size(), kChunk);
   std::vector<std::exception_ptr> errors(n_chunks);
   std::atomic<size_t> first_bad{n_chunks};
-  parallel_for(static_cast<int>(n_chunks), 1, [&](int c) {
-    const size_t chunk = static_cast<size_t>(c);
+  parallel_for_blocks(scene.objects.size(), kChunk, [&](size_t chunk, size_t begin, size_t end) {
     if (first_bad.load(std::memory_order_relaxed) < chunk) return;  // an earlier one failed
     try {
-      const size_t end = std::min(scene.objects.size(), (chunk + 1) * kChunk);
-      for (size_t i = chunk * kChunk; i < end; ++i) detail::validate_object(scene, i);
+      for (size_t i = begin; i < end; ++i) detail::validate_object(scene, i);
     } catch (...) {
       errors[chunk] = std::current_exception();
       size_t seen = first_bad.load();
