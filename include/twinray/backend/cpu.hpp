@@ -54,18 +54,30 @@ void with_features(unsigned needed, F&& f) {
   }
 }
 
+// Calls block(x, y, w, h) for every block of at most block_w x block_h pixels of the
+// rectangle (frame coordinates), handed out to the threads a few at a time.
+template <class F>
+void for_each_block(int x0, int y0, int width, int height, int block_w, int block_h, F&& block) {
+  const int blocks_x = (width + block_w - 1) / block_w;
+  const int blocks_y = (height + block_h - 1) / block_h;
+  parallel_for(blocks_x * blocks_y, 1, [&](int b) {
+    const int bx = (b % blocks_x) * block_w, by = (b / blocks_x) * block_h;
+    block(x0 + bx, y0 + by, std::min(block_w, width - bx), std::min(block_h, height - by));
+  });
+}
+
 // Calls pixel(x, y) for every pixel of the rectangle (frame coordinates), in 16x16
 // tiles handed out to the threads.
 template <class F>
 void for_each_pixel(int x0, int y0, int width, int height, F&& pixel) {
-  constexpr int kTile = 16;
-  const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
-  parallel_for(tiles_x * tiles_y, 1, [&](int tile) {
-    const int tx = (tile % tiles_x) * kTile, ty = (tile / tiles_x) * kTile;
-    for (int y = y0 + ty; y < y0 + std::min(ty + kTile, height); ++y)
-      for (int x = x0 + tx; x < x0 + std::min(tx + kTile, width); ++x) pixel(x, y);
+  for_each_block(x0, y0, width, height, 16, 16, [&](int bx, int by, int bw, int bh) {
+    for (int y = by; y < by + bh; ++y)
+      for (int x = bx; x < bx + bw; ++x) pixel(x, y);
   });
 }
+
+// Side of the pixel blocks whose camera rays are walked as one packet.
+constexpr int kPacketBlock = 8;
 
 inline std::string cpu_name() {
   return "CPU, " + std::to_string(std::thread::hardware_concurrency()) + " hardware threads";
@@ -121,6 +133,22 @@ class CpuBackend final : public RenderBackend<T> {
     const auto scene = frame.ref(*scene_);
     const auto& p = frame.params;
     const int aov = device_aov(output);
+    if (output == Output::Shaded) {
+      // Blocks of pixels traced a segment at a time (device/trace.h tr_render_block);
+      // the same values as pixel by pixel.
+      using Scratch = typename device::Code<T>::BlockScratch;
+      static_assert(kPacketBlock * kPacketBlock <= TR_PACKET_MAX, "a block is one packet");
+      for_each_block(p.rect_x, p.rect_y, p.rect_w, p.rect_h, kPacketBlock, kPacketBlock,
+                     [&](int bx, int by, int bw, int bh) {
+                       thread_local Scratch scratch;
+                       glm::vec<3, T> colors[kPacketBlock * kPacketBlock];
+                       K::tr_render_block(&scene, &scratch, bx, by, bw, bh, colors);
+                       for (int j = 0; j < bw * bh; ++j)
+                         K::tr_store_rgb(image.rgb.data(), p.rect_w, bx + j % bw - p.rect_x,
+                                         by + j / bw - p.rect_y, colors[j]);
+                     });
+      return;
+    }
     for_each_pixel(p.rect_x, p.rect_y, p.rect_w, p.rect_h, [&](int x, int y) {
       auto c = output == Output::Shaded ? K::tr_render_pixel(&scene, x, y)
                                         : K::tr_render_aov(&scene, x, y, aov);

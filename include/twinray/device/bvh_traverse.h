@@ -92,6 +92,48 @@ TR_FN_INLINE unsigned tr_ray_hits_boxes(TR_GLOBAL const real* boxes, const TrBox
   return mask;
 }
 
+/* The node a walk visits next: the nearest of the inner children entered (bits of
+ * `inner`, entry distances t_entry, node indices first[]) no later than tmax_grown,
+ * with the others pushed, farthest first (insertion sort into a list of at most W);
+ * else the top of the stack, skipping entries entered beyond tmax_grown (a box entered
+ * exactly there can hold a tie, and is kept). -1 when the walk is done. Shared by the
+ * ray walk and the packet walk (bvh_packet.h). */
+TR_FN_INLINE int tr_walk_next(unsigned inner, const real* t_entry, TR_GLOBAL const int* first,
+                              real tmax_grown, int* stack_node, real* stack_t, int* top) {
+  int n_inner = 0;
+  int inner_node[TR_BVH_MAX_WIDTH];
+  real inner_t[TR_BVH_MAX_WIDTH];
+  while (inner != 0u) {
+    int k = TR_LOWEST_BIT(inner);
+    inner &= inner - 1u;
+    real t = t_entry[k];
+    if (t > tmax_grown) continue;
+    int j = n_inner++;
+    for (; j > 0 && inner_t[j - 1] > t; --j) {
+      inner_t[j] = inner_t[j - 1];
+      inner_node[j] = inner_node[j - 1];
+    }
+    inner_t[j] = t;
+    inner_node[j] = first[k];
+  }
+  int next = -1;
+  if (n_inner > 0) {
+    for (int j = n_inner - 1; j > 0; --j) {
+      if (*top < TR_BVH_STACK_SIZE) {
+        stack_node[*top] = inner_node[j];
+        stack_t[*top] = inner_t[j];
+        ++*top;
+      }
+    }
+    next = inner_node[0];
+  }
+  while (next < 0 && *top > 0) {
+    --*top;
+    if (!(stack_t[*top] > tmax_grown)) next = stack_node[*top];
+  }
+  return next;
+}
+
 /* Walks the W-wide BVH. Closest hit (any_hit = 0): offers every primitive in the leaves
  * it reaches to *nearest and returns whether there is one. Any hit: returns 1 at the
  * first primitive in (0, nearest->t), computing nothing else.
@@ -145,40 +187,7 @@ TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nea
         }
       }
     }
-    /* The inner children worth visiting, by increasing entry distance (insertion sort
-     * into a list of at most W). */
-    real tmax_grown = nearest->t * grow;
-    int n_inner = 0;
-    int inner_node[TR_BVH_MAX_WIDTH];
-    real inner_t[TR_BVH_MAX_WIDTH];
-    while (inner != 0u) {
-      int k = TR_LOWEST_BIT(inner);
-      inner &= inner - 1u;
-      real t = t_entry[k];
-      if (t > tmax_grown) continue;
-      int j = n_inner++;
-      for (; j > 0 && inner_t[j - 1] > t; --j) {
-        inner_t[j] = inner_t[j - 1];
-        inner_node[j] = inner_node[j - 1];
-      }
-      inner_t[j] = t;
-      inner_node[j] = first[k];
-    }
-    int next = -1;
-    if (n_inner > 0) {
-      for (int j = n_inner - 1; j > 0; --j) {
-        if (top < TR_BVH_STACK_SIZE) {
-          stack_node[top] = inner_node[j];
-          stack_t[top] = inner_t[j];
-          ++top;
-        }
-      }
-      next = inner_node[0];
-    }
-    while (next < 0 && top > 0) {
-      --top;
-      if (!(stack_t[top] > nearest->t * grow)) next = stack_node[top];
-    }
+    int next = tr_walk_next(inner, t_entry, first, nearest->t * grow, stack_node, stack_t, &top);
     if (next < 0) break;
     index = next;
   }

@@ -73,6 +73,8 @@ struct Code<float> {
   using Ray = f32::TrRay;
   using Hit = f32::TrHit;
   using Sample2 = f32::TrSample2;
+  using BlockScratch = f32::TrBlockScratch;
+  using Nearest = f32::TrNearest;
   template <unsigned Features>
   using Kernel = f32::Kernel<Features>;
   static constexpr const char* name = "float";
@@ -92,6 +94,8 @@ struct Code<double> {
   using Ray = f64::TrRay;
   using Hit = f64::TrHit;
   using Sample2 = f64::TrSample2;
+  using BlockScratch = f64::TrBlockScratch;
+  using Nearest = f64::TrNearest;
   template <unsigned Features>
   using Kernel = f64::Kernel<Features>;
   static constexpr const char* name = "double";

@@ -11,6 +11,7 @@
 #include "intersect_plane.h"
 #include "ray_offset.h"
 #include "bvh_traverse.h"
+#include "bvh_packet.h"
 #include "scene_hit.h"
 #include "texture.h"
 #include "shading.h"

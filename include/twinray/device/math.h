@@ -16,6 +16,14 @@ TR_FN real tr_dot(vec3 a, vec3 b) {
   return a.x * b.x + a.y * b.y + a.z * b.z;
 }
 
+/* Componentwise minimum and maximum. */
+TR_FN vec3 tr_min3(vec3 a, vec3 b) {
+  return TR_VEC3(tr_min(a.x, b.x), tr_min(a.y, b.y), tr_min(a.z, b.z));
+}
+TR_FN vec3 tr_max3(vec3 a, vec3 b) {
+  return TR_VEC3(tr_max(a.x, b.x), tr_max(a.y, b.y), tr_max(a.z, b.z));
+}
+
 TR_FN vec3 tr_cross(vec3 a, vec3 b) {
   return TR_VEC3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
 }

@@ -11,6 +11,8 @@
  *                       primitive tests): always inlined on the host, where g++ otherwise
  *                       keeps them as calls and passes vectors through memory; PoCL
  *                       inlines every function into the kernel anyway
+ *   TR_FN_NOINLINE      a function kept out of line on both sides, so that the code
+ *                       holds one copy of it (the walks a ray packet falls back on)
  *   TR_GLOBAL           address space of pointers into scene buffers
  *   TR_HAS(bit)         compile-time test of the Features mask (TR_FEATURES)
  *   TR_COUNT_RAY()      counts a ray query in benchmark builds (host only; else nothing)
@@ -60,6 +62,7 @@ typedef float3 vec3;
 #define TR_FN_INLINE static inline __attribute__((always_inline))
 #endif
 #define TR_FN_OUTLINE static __attribute__((noinline))
+#define TR_FN_NOINLINE static __attribute__((noinline))
 #define TR_GLOBAL __global
 #define TR_COUNT_RAY() \
   do {                 \
@@ -78,8 +81,10 @@ typedef float3 vec3;
 #define TR_FN_OUTLINE static inline
 #if defined(__GNUC__) || defined(__clang__)
 #define TR_FN_INLINE static inline __attribute__((always_inline))
+#define TR_FN_NOINLINE static __attribute__((noinline))
 #else
 #define TR_FN_INLINE static inline
+#define TR_FN_NOINLINE static
 #endif
 #define TR_GLOBAL
 #define TR_VEC3(x, y, z) vec3((x), (y), (z))

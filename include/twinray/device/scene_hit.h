@@ -34,6 +34,20 @@ TR_FN void tr_record_hit(const TrSceneRef* s, TrRay ray, TrNearest nearest, TrHi
     tr_triangle_attributes(&s->triangle_attrs[triangle], &s->triangles[triangle], bary, ray.d, hit);
 }
 
+/* The end of a closest-hit query once the BVH (or the flat arrays) has been searched:
+ * the planes, which stay outside the BVH, then the record of the nearest hit. */
+TR_FN_INLINE int tr_closest_hit_finish(const TrSceneRef* s, TrRay ray, TrNearest nearest,
+                                       TrHit* hit) {
+  if (TR_HAS(TR_F_PLANES)) {
+    int n_bounded = s->params->n_spheres + s->params->n_triangles;
+    for (int i = 0; i < s->params->n_planes; ++i)
+      tr_offer_hit(&nearest, tr_plane_t(&s->planes[i], ray), n_bounded + i);
+  }
+  if (nearest.prim < 0) return 0;
+  tr_record_hit(s, ray, nearest, hit);
+  return 1;
+}
+
 /* The nearest hit in (0, tmax): the smallest (t, primitive id), see tr_offer_hit.
  * Both entry points take the ray by pointer: passed by value, g++ stores the caller's
  * ray field by field and reloads it in 16-byte pieces for the call, a store-forwarding
@@ -44,7 +58,6 @@ TR_FN_OUTLINE int tr_closest_hit(const TrSceneRef* s, const TrRay* ray_in, real 
   nearest.t = tmax;
   nearest.prim = -1;
   int n_spheres = s->params->n_spheres;
-  int n_bounded = n_spheres + s->params->n_triangles;
   TR_COUNT_RAY();
   if (tr_use(s, TR_F_BVH)) {
     tr_bvh_walk(s, ray, &nearest, 0);
@@ -59,13 +72,18 @@ TR_FN_OUTLINE int tr_closest_hit(const TrSceneRef* s, const TrRay* ray_in, real 
         tr_offer_hit(&nearest, tr_triangle_t(&s->triangles[i], ray, &tri_ray), n_spheres + i);
     }
   }
+  return tr_closest_hit_finish(s, ray, nearest, hit);
+}
+
+/* Does a plane (outside the BVH) lie in (0, tmax) along the ray? */
+TR_FN_INLINE int tr_any_plane_hit(const TrSceneRef* s, TrRay ray, real tmax) {
   if (TR_HAS(TR_F_PLANES)) {
-    for (int i = 0; i < s->params->n_planes; ++i)
-      tr_offer_hit(&nearest, tr_plane_t(&s->planes[i], ray), n_bounded + i);
+    for (int i = 0; i < s->params->n_planes; ++i) {
+      real t = tr_plane_t(&s->planes[i], ray);
+      if (t > TR_R(0.0) && t < tmax) return 1;
+    }
   }
-  if (nearest.prim < 0) return 0;
-  tr_record_hit(s, ray, nearest, hit);
-  return 1;
+  return 0;
 }
 
 /* Is anything in (0, tmax) along the ray? Stops at the first hit and makes no record. */
@@ -92,11 +110,49 @@ TR_FN_OUTLINE int tr_any_hit(const TrSceneRef* s, const TrRay* ray_in, real tmax
       }
     }
   }
-  if (TR_HAS(TR_F_PLANES)) {
-    for (int i = 0; i < s->params->n_planes; ++i) {
-      real t = tr_plane_t(&s->planes[i], ray);
-      if (t > TR_R(0.0) && t < tmax) return 1;
+  return tr_any_plane_hit(s, ray, tmax);
+}
+
+/* tr_closest_hit for the packet's rays pk->ray[0 .. n), each in (0, inf): found[r] and
+ * hit[r]. With a BVH, the packet is walked as one where its rays are coherent
+ * (bvh_packet.h); the answers are those of tr_closest_hit, ray by ray. */
+TR_FN void tr_closest_hit_packet(const TrSceneRef* s, TrRayPacket* pk, TrHit* hit, int* found) {
+  if (!tr_use(s, TR_F_BVH)) {
+    for (int r = 0; r < pk->n; ++r) {
+      hit[r] = tr_no_hit();
+      found[r] = tr_closest_hit(s, &pk->ray[r], TR_R(INFINITY), &hit[r]);
     }
+    return;
   }
-  return 0;
+  for (int r = 0; r < pk->n; ++r) {
+    pk->t[r] = TR_R(INFINITY);
+    pk->prim[r] = -1;
+  }
+  tr_packet_bvh(s, pk, tr_packet_begin(pk), 0);
+  for (int r = 0; r < pk->n; ++r) {
+    TrNearest nearest;
+    nearest.t = pk->t[r];
+    nearest.prim = pk->prim[r];
+    TR_COUNT_RAY();
+    hit[r] = tr_no_hit();
+    found[r] = tr_closest_hit_finish(s, pk->ray[r], nearest, &hit[r]);
+  }
+}
+
+/* tr_any_hit for the packet's rays, ray r's tmax in pk->t[r]: blocked[r]. */
+TR_FN void tr_any_hit_packet(const TrSceneRef* s, TrRayPacket* pk, int* blocked) {
+  if (!tr_use(s, TR_F_BVH)) {
+    for (int r = 0; r < pk->n; ++r) blocked[r] = tr_any_hit(s, &pk->ray[r], pk->t[r]);
+    return;
+  }
+  real tmax[TR_PACKET_MAX];
+  for (int r = 0; r < pk->n; ++r) {
+    tmax[r] = pk->t[r];
+    pk->prim[r] = -1;
+  }
+  tr_packet_bvh(s, pk, tr_packet_begin(pk), 1);
+  for (int r = 0; r < pk->n; ++r) {
+    TR_COUNT_RAY();
+    blocked[r] = pk->t[r] < TR_R(0.0) || tr_any_plane_hit(s, pk->ray[r], tmax[r]);
+  }
 }

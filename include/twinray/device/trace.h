@@ -4,29 +4,50 @@
  * loop carrying the product of the glaze factors; max_depth counts ray segments
  * (1 = camera rays only). Values stay linear HDR; clamping happens at output. */
 
-TR_FN vec3 tr_trace(const TrSceneRef* s, TrRay ray) {
-  TR_GLOBAL const TrParams* p = s->params;
-  vec3 color = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
-  vec3 background = TR_VEC3(p->bg_r, p->bg_g, p->bg_b);
-  real weight = TR_R(1.0);
-  int segments = tr_use(s, TR_F_GLAZE) ? p->max_depth : 1;
-  for (int depth = 0; depth < segments; ++depth) {
-    TrHit hit = tr_no_hit();
-    if (!tr_closest_hit(s, &ray, TR_R(INFINITY), &hit)) {
-      color = color + background * weight;
-      break;
-    }
-    color = color + tr_shade(s, &hit, ray.d) * weight;
-    if (!TR_HAS(TR_F_GLAZE)) break;
-    real glaze = s->materials[hit.material].glaze;
-    if (!(glaze > TR_R(0.0))) break;
-    vec3 n = hit.ns; /* the shading normal mirrors; the geometric one offsets */
-    vec3 mirrored = tr_normalize(ray.d - n * (TR_R(2.0) * tr_dot(ray.d, n)));
-    ray.o = tr_offset_ray_origin(hit.p, hit.perr, hit.n, mirrored);
-    ray.d = mirrored;
-    weight = weight * glaze;
+/* A camera ray's path before its first segment. */
+TR_FN TrPath tr_path_start(const TrSceneRef* s, TrRay ray) {
+  TrPath path;
+  path.ray = ray;
+  path.color = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
+  path.weight = TR_R(1.0);
+  path.segments_left = tr_use(s, TR_F_GLAZE) ? s->params->max_depth : 1;
+  return path;
+}
+
+/* One segment of the path, whose ray's closest hit is (found, hit): adds what it sees
+ * and, on a glazed surface, turns the path into the mirrored ray. Shadow tests as in
+ * tr_shade_known. */
+TR_FN void tr_path_step(const TrSceneRef* s, TrPath* path, int found, const TrHit* hit,
+                        unsigned blocked, int n_known) {
+  --path->segments_left;
+  if (!found) {
+    TR_GLOBAL const TrParams* p = s->params;
+    path->color = path->color + TR_VEC3(p->bg_r, p->bg_g, p->bg_b) * path->weight;
+    path->segments_left = 0;
+    return;
   }
-  return color;
+  vec3 d = path->ray.d;
+  path->color = path->color + tr_shade_known(s, hit, d, blocked, n_known) * path->weight;
+  real glaze = TR_HAS(TR_F_GLAZE) ? s->materials[hit->material].glaze : TR_R(0.0);
+  if (!(glaze > TR_R(0.0))) {
+    path->segments_left = 0;
+    return;
+  }
+  vec3 n = hit->ns; /* the shading normal mirrors; the geometric one offsets */
+  vec3 mirrored = tr_normalize(d - n * (TR_R(2.0) * tr_dot(d, n)));
+  path->ray.o = tr_offset_ray_origin(hit->p, hit->perr, hit->n, mirrored);
+  path->ray.d = mirrored;
+  path->weight = path->weight * glaze;
+}
+
+TR_FN vec3 tr_trace(const TrSceneRef* s, TrRay ray) {
+  TrPath path = tr_path_start(s, ray);
+  while (path.segments_left > 0) {
+    TrHit hit = tr_no_hit();
+    int found = tr_closest_hit(s, &path.ray, TR_R(INFINITY), &hit);
+    tr_path_step(s, &path, found, &hit, 0u, 0);
+  }
+  return path.color;
 }
 
 /* Mean of the pixel's samples; the summation order is fixed, so both sides agree. */
@@ -38,6 +59,57 @@ TR_FN vec3 tr_render_pixel(const TrSceneRef* s, int px, int py) {
     sum = sum + tr_trace(s, tr_camera_ray(p, px, py, smp));
   }
   return sum * (TR_R(1.0) / (real)p->spp);
+}
+
+/* tr_render_pixel for a block of w x h pixels from (x0, y0), w h <= TR_PACKET_MAX,
+ * into colors[w h] (rows of w): the same values, computed a segment at a time for all
+ * the block's paths, so that each segment's rays, and the shadow rays toward each of
+ * the first 32 lights, are found in one packet query (scene_hit.h). Each path takes the
+ * same steps as in tr_trace; only the order across pixels differs. The CPU backend's
+ * path for shaded frames. */
+TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, int x0, int y0, int w, int h,
+                           vec3* colors) {
+  TR_GLOBAL const TrParams* p = s->params;
+  TrRayPacket* pk = &b->packet;
+  int n = w * h;
+  int n_known = tr_use(s, TR_F_SHADOWS) ? (p->n_lights < 32 ? p->n_lights : 32) : 0;
+  for (int j = 0; j < n; ++j) colors[j] = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
+  for (int i = 0; i < p->spp; ++i) {
+    for (int j = 0; j < n; ++j) {
+      int px = x0 + j % w, py = y0 + j / w;
+      TrSample2 smp = tr_sample_position_seeded(p->sampler, p->seed, i, p->spp, px, py);
+      b->path[j] = tr_path_start(s, tr_camera_ray(p, px, py, smp));
+    }
+    for (;;) {
+      int m = 0;
+      for (int j = 0; j < n; ++j) {
+        if (b->path[j].segments_left <= 0) continue;
+        pk->ray[m] = b->path[j].ray;
+        b->slot[m++] = j;
+      }
+      if (m == 0) break;
+      pk->n = m;
+      tr_closest_hit_packet(s, pk, b->hit, b->found);
+      for (int r = 0; r < m; ++r) b->blocked[r] = 0u;
+      for (int light = 0; light < n_known; ++light) {
+        int k = 0;
+        for (int r = 0; r < m; ++r) {
+          if (!b->found[r] || !tr_shading_needs_shadow_ray(s, &b->hit[r], b->path[b->slot[r]].ray.d,
+                                                           light, &pk->ray[k], &pk->t[k]))
+            continue;
+          b->lane[k++] = r;
+        }
+        if (k == 0) continue;
+        pk->n = k;
+        tr_any_hit_packet(s, pk, b->lane_blocked);
+        for (int q = 0; q < k; ++q) b->blocked[b->lane[q]] |= (unsigned)b->lane_blocked[q] << light;
+      }
+      for (int r = 0; r < m; ++r)
+        tr_path_step(s, &b->path[b->slot[r]], b->found[r], &b->hit[r], b->blocked[r], n_known);
+    }
+    for (int j = 0; j < n; ++j) colors[j] = colors[j] + b->path[j].color;
+  }
+  for (int j = 0; j < n; ++j) colors[j] = colors[j] * (TR_R(1.0) / (real)p->spp);
 }
 
 /* Arbitrary output variables of the primary ray through the pixel center. */

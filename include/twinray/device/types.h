@@ -153,6 +153,56 @@ typedef struct TrNearest {
   int prim;
 } TrNearest;
 
+/* A packet of rays walked together (bvh_packet.h): the rays, their box-test views one
+ * array per component (so the per-ray box test runs a ray per SIMD lane), each ray's
+ * nearest hit, and, for a coherent packet, the bounds of origins and reciprocal
+ * directions over all rays and the slab planes they share. */
+#define TR_PACKET_MAX 64
+typedef struct TrRayPacket {
+  int n;
+  TrRay ray[TR_PACKET_MAX];
+  TrTriangleRay tri_ray[TR_PACKET_MAX];
+  real ox[TR_PACKET_MAX], oy[TR_PACKET_MAX], oz[TR_PACKET_MAX];
+  real ix[TR_PACKET_MAX], iy[TR_PACKET_MAX], iz[TR_PACKET_MAX];
+  real fx[TR_PACKET_MAX], fy[TR_PACKET_MAX], fz[TR_PACKET_MAX];
+  real t[TR_PACKET_MAX];
+  int prim[TR_PACKET_MAX];
+  vec3 o_lo, o_hi, i_lo, i_hi, f_lo, f_hi;
+  int near_x, near_y, near_z, far_x, far_y, far_z;
+} TrRayPacket;
+
+/* A point light as shading sees it from a hit (shading.h): where it is, the
+ * irradiance it brings, the unit direction l to it and n.l; which terms it adds. */
+#define TR_LIGHT_NONE 0    /* the hit is at the light: no term */
+#define TR_LIGHT_AMBIENT 1 /* ambient only: behind the surface, or no other term on */
+#define TR_LIGHT_ALL 2     /* every term, unless its shadow ray is blocked */
+typedef struct TrLightView {
+  vec3 pos, irradiance, l;
+  real n_dot_l;
+  int lit;
+} TrLightView;
+
+/* A camera ray's path through its mirror chain (trace.h): the ray of its next segment,
+ * the color so far, the product of the glaze factors passed, and how many segments it
+ * may still take (0: done). */
+typedef struct TrPath {
+  TrRay ray;
+  vec3 color;
+  real weight;
+  int segments_left;
+} TrPath;
+
+/* Working memory of tr_render_block (trace.h): a block's paths, one segment's hits, and
+ * each hit's shadow tests (bit i: toward light i). */
+typedef struct TrBlockScratch {
+  TrRayPacket packet;
+  TrPath path[TR_PACKET_MAX];
+  TrHit hit[TR_PACKET_MAX];
+  int found[TR_PACKET_MAX], slot[TR_PACKET_MAX], lane[TR_PACKET_MAX];
+  int lane_blocked[TR_PACKET_MAX];
+  unsigned blocked[TR_PACKET_MAX];
+} TrBlockScratch;
+
 typedef struct TrSample2 {
   real x, y; /* position inside the pixel, in [0, 1) */
 } TrSample2;

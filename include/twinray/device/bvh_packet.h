@@ -1,0 +1,285 @@
+/* Closest hits of a packet of coherent rays (up to TR_PACKET_MAX: one block of camera
+ * rays) in one walk of the W-wide BVH, with interval culling: the large-packet
+ * traversal of Wald, Boulos and Shirley, "Ray Tracing Deformable Scenes Using Dynamic
+ * Bounding Volume Hierarchies" (ACM TOG 26(1), 2007), and Overbeck, Ramamoorthi and
+ * Mark, "Large Ray Packets for Real-Time Whitted Ray Tracing" (IRT 2008).
+ *
+ * An inner node's W boxes are tested once for the whole packet, against the interval
+ * that holds every ray's origin and reciprocal direction (all rays' directions have the
+ * same sign on each axis, or the packet is walked ray by ray). The interval test is
+ * conservative against each ray's own box test in floating point, not only in real
+ * numbers: rounding is monotonic, so fl(B - o) lies between fl(B - o_hi) and
+ * fl(B - o_lo), and fl(x y) between the least and greatest of the rounded products of
+ * the bounds. If no ray's own test (tr_ray_hits_boxes) could enter a box, the
+ * packet's does not either; the packet may enter more, never fewer. At a leaf each ray
+ * takes its own box test, the very operations of tr_ray_hits_boxes, one ray per SIMD
+ * lane, and tests the primitives only if it passes. Each ray thus offers its primitives
+ * to its own nearest hit (tr_offer_hit), a superset of those its single-ray walk
+ * offers that still holds the winner: the image is the same bits as the single-ray
+ * walk's (tests/device/packet_test.cpp). */
+
+/* Fills the packet's derived fields from pk->ray[0 .. n) (pk->t and pk->prim are the
+ * caller's: each ray's tmax and -1). Returns whether the packet can be walked as one: every
+ * direction component nonzero and of the same sign across the packet, every reciprocal finite. */
+TR_FN int tr_packet_begin(TrRayPacket* pk) {
+  int coherent = pk->n > 0;
+  vec3 d0 = pk->ray[0].d;
+  for (int r = 0; r < pk->n; ++r) {
+    TrRay ray = pk->ray[r];
+    TrBoxRay br = tr_box_ray(ray);
+    pk->ox[r] = ray.o.x;
+    pk->oy[r] = ray.o.y;
+    pk->oz[r] = ray.o.z;
+    pk->ix[r] = br.inv_d.x;
+    pk->iy[r] = br.inv_d.y;
+    pk->iz[r] = br.inv_d.z;
+    pk->fx[r] = br.inv_d_far.x;
+    pk->fy[r] = br.inv_d_far.y;
+    pk->fz[r] = br.inv_d_far.z;
+    if (!(ray.d.x * d0.x > TR_R(0.0) && ray.d.y * d0.y > TR_R(0.0) && ray.d.z * d0.z > TR_R(0.0)))
+      coherent = 0;
+    if (!(fabs(br.inv_d_far.x) < TR_R(INFINITY) && fabs(br.inv_d_far.y) < TR_R(INFINITY) &&
+          fabs(br.inv_d_far.z) < TR_R(INFINITY)))
+      coherent = 0;
+  }
+  if (!coherent) return 0;
+  TrBoxRay first = tr_box_ray(pk->ray[0]);
+  pk->near_x = first.near_x;
+  pk->near_y = first.near_y;
+  pk->near_z = first.near_z;
+  pk->far_x = first.far_x;
+  pk->far_y = first.far_y;
+  pk->far_z = first.far_z;
+  pk->o_lo = pk->o_hi = pk->ray[0].o;
+  pk->i_lo = pk->i_hi = first.inv_d;
+  pk->f_lo = pk->f_hi = first.inv_d_far;
+  for (int r = 1; r < pk->n; ++r) {
+    vec3 o = TR_VEC3(pk->ox[r], pk->oy[r], pk->oz[r]);
+    vec3 i = TR_VEC3(pk->ix[r], pk->iy[r], pk->iz[r]);
+    vec3 f = TR_VEC3(pk->fx[r], pk->fy[r], pk->fz[r]);
+    pk->o_lo = tr_min3(pk->o_lo, o);
+    pk->o_hi = tr_max3(pk->o_hi, o);
+    pk->i_lo = tr_min3(pk->i_lo, i);
+    pk->i_hi = tr_max3(pk->i_hi, i);
+    pk->f_lo = tr_min3(pk->f_lo, f);
+    pk->f_hi = tr_max3(pk->f_hi, f);
+  }
+  return 1;
+}
+
+/* The least and greatest of the rounded products x y over x in [x_lo, x_hi] and y in
+ * [y_lo, y_hi]: attained at the corners, since rounding is monotonic. */
+TR_FN_INLINE real tr_interval_mul_lo(real x_lo, real x_hi, real y_lo, real y_hi) {
+  real a = x_lo * y_lo, b = x_lo * y_hi, c = x_hi * y_lo, d = x_hi * y_hi;
+  real m = a < b ? a : b;
+  m = c < m ? c : m;
+  return d < m ? d : m;
+}
+TR_FN_INLINE real tr_interval_mul_hi(real x_lo, real x_hi, real y_lo, real y_hi) {
+  real a = x_lo * y_lo, b = x_lo * y_hi, c = x_hi * y_lo, d = x_hi * y_hi;
+  real m = a > b ? a : b;
+  m = c > m ? c : m;
+  return d > m ? d : m;
+}
+
+/* The packet's test of one wide node's W boxes: bit k set unless no ray of the packet
+ * can enter child k before tmax_grown (the greatest of the rays' grown nearest hits);
+ * t_entry[k] a lower bound on where any of them enters it. */
+TR_FN_INLINE unsigned tr_packet_hits_boxes(TR_GLOBAL const real* boxes, const TrRayPacket* pk,
+                                           real tmax_grown, int W, real* t_entry) {
+  TR_GLOBAL const real* near_x = boxes + pk->near_x * W;
+  TR_GLOBAL const real* near_y = boxes + pk->near_y * W;
+  TR_GLOBAL const real* near_z = boxes + pk->near_z * W;
+  TR_GLOBAL const real* far_x = boxes + pk->far_x * W;
+  TR_GLOBAL const real* far_y = boxes + pk->far_y * W;
+  TR_GLOBAL const real* far_z = boxes + pk->far_z * W;
+  vec3 o_lo = pk->o_lo, o_hi = pk->o_hi, i_lo = pk->i_lo, i_hi = pk->i_hi;
+  vec3 f_lo = pk->f_lo, f_hi = pk->f_hi;
+  unsigned mask = 0u;
+  TR_SIMD_LOOP
+  for (int k = 0; k < W; ++k) {
+    real nx = tr_interval_mul_lo(near_x[k] - o_hi.x, near_x[k] - o_lo.x, i_lo.x, i_hi.x);
+    real ny = tr_interval_mul_lo(near_y[k] - o_hi.y, near_y[k] - o_lo.y, i_lo.y, i_hi.y);
+    real nz = tr_interval_mul_lo(near_z[k] - o_hi.z, near_z[k] - o_lo.z, i_lo.z, i_hi.z);
+    real fx = tr_interval_mul_hi(far_x[k] - o_hi.x, far_x[k] - o_lo.x, f_lo.x, f_hi.x);
+    real fy = tr_interval_mul_hi(far_y[k] - o_hi.y, far_y[k] - o_lo.y, f_lo.y, f_hi.y);
+    real fz = tr_interval_mul_hi(far_z[k] - o_hi.z, far_z[k] - o_lo.z, f_lo.z, f_hi.z);
+    real t0 = TR_R(0.0), t1 = tmax_grown;
+    t0 = nx > t0 ? nx : t0;
+    t0 = ny > t0 ? ny : t0;
+    t0 = nz > t0 ? nz : t0;
+    t1 = fx < t1 ? fx : t1;
+    t1 = fy < t1 ? fy : t1;
+    t1 = fz < t1 ? fz : t1;
+    t_entry[k] = t0;
+    mask |= (unsigned)(t0 <= t1) << k;
+  }
+  return mask;
+}
+
+/* Each ray's own test of child k's box: tr_ray_hits_boxes's operations, in the same
+ * order, with the ray in lane r. Lists the rays that enter in rays[] (in order) and
+ * returns how many; enter[] is scratch. */
+TR_FN_INLINE int tr_packet_rays_enter_box(TR_GLOBAL const real* boxes, const TrRayPacket* pk, int W,
+                                          int k, int* enter, int* rays) {
+  real bnx = boxes[pk->near_x * W + k], bny = boxes[pk->near_y * W + k];
+  real bnz = boxes[pk->near_z * W + k], bfx = boxes[pk->far_x * W + k];
+  real bfy = boxes[pk->far_y * W + k], bfz = boxes[pk->far_z * W + k];
+  real grow = TR_R(1.0) + TR_R(2.0) * tr_gamma(3);
+  int n = pk->n;
+  TR_SIMD_LOOP
+  for (int r = 0; r < n; ++r) {
+    real nx = (bnx - pk->ox[r]) * pk->ix[r];
+    real ny = (bny - pk->oy[r]) * pk->iy[r];
+    real nz = (bnz - pk->oz[r]) * pk->iz[r];
+    real fx = (bfx - pk->ox[r]) * pk->fx[r];
+    real fy = (bfy - pk->oy[r]) * pk->fy[r];
+    real fz = (bfz - pk->oz[r]) * pk->fz[r];
+    real t0 = TR_R(0.0), t1 = pk->t[r] * grow;
+    t0 = nx > t0 ? nx : t0;
+    t0 = ny > t0 ? ny : t0;
+    t0 = nz > t0 ? nz : t0;
+    t1 = fx < t1 ? fx : t1;
+    t1 = fy < t1 ? fy : t1;
+    t1 = fz < t1 ? fz : t1;
+    enter[r] = t0 <= t1;
+  }
+  int count = 0;
+  for (int r = 0; r < n; ++r) { /* branch-free compaction */
+    rays[count] = r;
+    count += enter[r];
+  }
+  return count;
+}
+
+/* The greatest of the packet's nearest distances, grown as the box test grows them.
+ * Eight running maxima side by side instead of one chain of dependent compares (t is
+ * never NaN, so the result is the same). */
+TR_FN_INLINE real tr_packet_tmax_grown(const TrRayPacket* pk) {
+  real m[8];
+  int n = pk->n, r = 0;
+  for (int j = 0; j < 8; ++j) m[j] = pk->t[0];
+  for (; r + 8 <= n; r += 8) {
+    TR_SIMD_LOOP
+    for (int j = 0; j < 8; ++j) m[j] = pk->t[r + j] > m[j] ? pk->t[r + j] : m[j];
+  }
+  for (; r < n; ++r) m[0] = pk->t[r] > m[0] ? pk->t[r] : m[0];
+  for (int j = 1; j < 8; ++j) m[0] = m[j] > m[0] ? m[j] : m[0];
+  return m[0] * (TR_R(1.0) + TR_R(2.0) * tr_gamma(3));
+}
+
+/* Walks the W-wide BVH once for a coherent packet (tr_packet_begin returned 1). Closest
+ * hit (any_hit = 0): offers each ray the primitives of the leaves its own box test
+ * enters. Any hit: a ray stops at its first primitive in (0, pk->t[r]), which sets
+ * pk->t[r] to -1; a negative t fails every box test after that. Inner children are
+ * visited nearest first by the packet's entry bound; a popped node is dropped once
+ * every ray's nearest hit lies before it, and the walk ends when every ray is done.
+ * Returns 1 when done; 0 when the packet stops paying for itself and gives up, after
+ * 4 n + 16 nodes, or once 16 leaves have been tested and fewer rays entered them than
+ * there were tests: a beam far wider than what its rays cover (shadow rays from a tile
+ * of floor near the horizon, kilometres long, over a fine mesh) visited thousands of
+ * nodes and made frames ten times slower. What was found stays; the caller walks the
+ * rays one by one from there (tr_packet_bvh). */
+TR_FN_INLINE int tr_packet_walk_wide(const TrSceneRef* s, TrRayPacket* pk, int any_hit, int W) {
+  if (s->params->n_bvh_nodes <= 0) return 1;
+  int stack_node[TR_BVH_STACK_SIZE];
+  real stack_t[TR_BVH_STACK_SIZE];
+  int enter[TR_PACKET_MAX], rays[TR_PACKET_MAX];
+  int top = 0;
+  int index = 0;
+  real tmax_grown = tr_packet_tmax_grown(pk);
+  int visits_left = 4 * pk->n + 16;
+  int leaf_tests = 0, leaf_entries = 0;
+  for (;;) {
+    if (--visits_left < 0) return 0;
+    TR_GLOBAL const int* first = s->bvh_links + index * 2 * W;
+    TR_GLOBAL const int* count = first + W;
+    TR_GLOBAL const real* boxes = s->bvh_boxes + index * 6 * W;
+    real t_entry[TR_BVH_MAX_WIDTH];
+    unsigned mask = tr_packet_hits_boxes(boxes, pk, tmax_grown, W, t_entry);
+    unsigned inner = 0u;
+    int leaves_tested = 0;
+    while (mask != 0u) {
+      int k = TR_LOWEST_BIT(mask);
+      mask &= mask - 1u;
+      if (count[k] <= 0) {
+        inner |= count[k] == 0 ? 1u << k : 0u;
+        continue;
+      }
+      int entered = tr_packet_rays_enter_box(boxes, pk, W, k, enter, rays);
+      leaf_tests += 1;
+      leaf_entries += entered;
+      if (leaf_tests >= 16 && leaf_entries < leaf_tests) return 0;
+      if (entered == 0) continue;
+      leaves_tested = 1;
+      for (int i = first[k]; i < first[k] + count[k]; ++i) {
+        int prim = s->bvh_prims[i];
+        for (int q = 0; q < entered; ++q) {
+          int r = rays[q];
+          if (any_hit) {
+            if (pk->t[r] < TR_R(0.0)) continue; /* blocked by an earlier primitive */
+            real t = tr_primitive_t(s, prim, pk->ray[r], &pk->tri_ray[r]);
+            if (t > TR_R(0.0) && t < pk->t[r]) pk->t[r] = TR_R(-1.0);
+            continue;
+          }
+          TrNearest nearest;
+          nearest.t = pk->t[r];
+          nearest.prim = pk->prim[r];
+          tr_offer_hit(&nearest, tr_primitive_t(s, prim, pk->ray[r], &pk->tri_ray[r]), prim);
+          pk->t[r] = nearest.t;
+          pk->prim[r] = nearest.prim;
+        }
+      }
+    }
+    if (leaves_tested) {
+      tmax_grown = tr_packet_tmax_grown(pk);
+      if (tmax_grown < TR_R(0.0)) break; /* any hit: every ray is blocked */
+    }
+    int next = tr_walk_next(inner, t_entry, first, tmax_grown, stack_node, stack_t, &top);
+    if (next < 0) break;
+    index = next;
+  }
+  return 1;
+}
+
+/* The walks a packet's rays fall back on, one by one; out of line, so that the code
+ * holds one copy of each besides the ray queries' own (scene_hit.h). */
+TR_FN_NOINLINE void tr_bvh_nearest(const TrSceneRef* s, const TrRay* ray, TrNearest* nearest) {
+  tr_bvh_walk(s, *ray, nearest, 0);
+}
+
+TR_FN_NOINLINE int tr_bvh_blocked(const TrSceneRef* s, const TrRay* ray, real tmax) {
+  TrNearest limit;
+  limit.t = tmax;
+  limit.prim = -1;
+  return tr_bvh_walk(s, *ray, &limit, 1);
+}
+
+/* The BVH part of a packet query (pk->t and pk->prim set, tr_packet_begin's answer in
+ * coherent): one walk for a coherent packet on an 8-wide tree, else (or where the
+ * packet gave up) one per ray. Packets walk only the 8-wide trees both backends build
+ * for CPUs (bvh::kCpuWidth): each width is a copy of the walk in every instantiation
+ * of the device code, and two more widths made a rendering translation unit compile
+ * 40% longer. Closest hit: each ray's
+ * nearest (t, primitive) in pk->t and pk->prim. Any hit: pk->t[r] < 0 where ray r is
+ * blocked. */
+TR_FN void tr_packet_bvh(const TrSceneRef* s, TrRayPacket* pk, int coherent, int any_hit) {
+  if (coherent) {
+    if (TR_HAS(TR_F_TRIANGLES)) {
+      for (int r = 0; r < pk->n; ++r) pk->tri_ray[r] = tr_triangle_ray(pk->ray[r]);
+    }
+    if (tr_use(s, TR_F_BVH8) && tr_packet_walk_wide(s, pk, any_hit, 8)) return;
+  }
+  for (int r = 0; r < pk->n; ++r) {
+    if (any_hit) {
+      if (pk->t[r] >= TR_R(0.0) && tr_bvh_blocked(s, &pk->ray[r], pk->t[r])) pk->t[r] = TR_R(-1.0);
+      continue;
+    }
+    TrNearest nearest;
+    nearest.t = pk->t[r];
+    nearest.prim = pk->prim[r];
+    tr_bvh_nearest(s, &pk->ray[r], &nearest);
+    pk->t[r] = nearest.t;
+    pk->prim[r] = nearest.prim;
+  }
+}

@@ -1,0 +1,202 @@
+// Packets of rays (device/bvh_packet.h) give each ray exactly what its own walk gives.
+//  - Queries: tr_packet_bvh's nearest (t, primitive) and blocked flags equal
+//    tr_bvh_walk's, ray by ray, for coherent packets (one walk), packets that give up
+//    part way (a beam far wider than its rays), and incoherent ones (ray by ray); the
+//    packet walk itself at every width, tr_packet_bvh (which walks packets on 8-wide
+//    trees only) at every width too.
+//  - Images: the CPU backend, which traces 8x8 blocks a segment at a time
+//    (tr_render_block), gives the same bits as tr_render_pixel pixel by pixel: BVH
+//    widths 2, 4 and 8, float and double, perspective and orthographic, several jittered
+//    samples, a pixel rectangle whose blocks are cut at its edges, and more lights than
+//    the 32 whose shadow rays are traced in packets.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <twinray/twinray.hpp>
+
+#include "bvh_scenes.hpp"
+#include "device/device_test_util.hpp"
+
+namespace {
+
+using test::Code;
+using test::K;
+using test::vec3;
+
+template <class T>
+twinray::Scene<T> test_scene() {
+  auto scene = bvh_test::random_scene<T>(300, 300, 7u);
+  scene.add(bvh_test::folded_grid<T>(12, 2));
+  return scene;
+}
+
+template <class T>
+twinray::PackedScene<T> packed(const twinray::Scene<T>& scene, int width) {
+  twinray::PackOptions options;
+  options.bvh = twinray::BvhPolicy::Always;
+  options.bvh_width = width;
+  return twinray::pack_scene(scene, options);
+}
+
+template <class T>
+typename Code<T>::Ray ray(vec3<T> o, vec3<T> d) {
+  typename Code<T>::Ray r;
+  r.o = o;
+  r.d = glm::normalize(d);
+  return r;
+}
+
+enum Outcome { kOneWalk, kGaveUp, kRayByRay };
+
+// Runs the packet query and each ray's own walk, and checks they agree ray by ray.
+// Returns how the packet was walked.
+template <class T>
+Outcome check_packet(const twinray::PackedScene<T>& ps,
+                     const std::vector<typename Code<T>::Ray>& rays, bool any_hit) {
+  twinray::RenderOptions options;
+  const auto frame =
+      twinray::pack_frame(ps.summary(), {bvh_test::test_camera<T>(8, 8), {}, options});
+  const auto ref = frame.ref(ps);
+  const int mode = any_hit ? 1 : 0;
+  const T tmax = any_hit ? T(5) : T(INFINITY);
+  auto scratch = std::make_unique<typename Code<T>::BlockScratch>();
+  auto& pk = scratch->packet;
+  pk.n = static_cast<int>(rays.size());
+  for (int r = 0; r < pk.n; ++r) {
+    pk.ray[r] = rays[static_cast<size_t>(r)];
+    pk.t[r] = tmax;
+    pk.prim[r] = -1;
+  }
+  const int coherent = K<T>::tr_packet_begin(&pk);
+  Outcome outcome = kRayByRay;
+  if (coherent) {  // the walk alone, on a copy, to see whether it goes to the end
+    auto copy = std::make_unique<typename Code<T>::BlockScratch>(*scratch);
+    for (int r = 0; r < pk.n; ++r) copy->packet.tri_ray[r] = K<T>::tr_triangle_ray(pk.ray[r]);
+    outcome =
+        K<T>::tr_packet_walk_wide(&ref, &copy->packet, mode, ps.bvh_width) ? kOneWalk : kGaveUp;
+  }
+  K<T>::tr_packet_bvh(&ref, &pk, coherent, mode);
+  for (int r = 0; r < pk.n; ++r) {
+    CAPTURE(r);
+    typename Code<T>::Nearest own;
+    own.t = tmax;
+    own.prim = -1;
+    const int blocked = K<T>::tr_bvh_walk(&ref, pk.ray[r], &own, mode);
+    if (any_hit) {
+      CHECK((pk.t[r] < T(0)) == (blocked != 0));
+    } else {
+      CHECK(pk.prim[r] == own.prim);
+      CHECK(std::memcmp(&pk.t[r], &own.t, sizeof(T)) == 0);
+    }
+  }
+  return outcome;
+}
+
+template <class T>
+void check_queries(int width) {
+  const auto ps = packed(test_scene<T>(), width);
+  std::mt19937 rng(11u);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  int outcomes[3] = {0, 0, 0};
+  for (int trial = 0; trial < 60; ++trial) {
+    std::vector<typename Code<T>::Ray> rays;
+    const int kind = trial % 3;
+    const vec3<T> eye(T(u(rng)), T(-1 + 0.3 * u(rng)), T(6));
+    const vec3<T> target(T(3 * u(rng)), T(u(rng)), T(-2));
+    for (int i = 0; i < 64; ++i) {
+      const T a = T(0.01 * (i % 8)), b = T(0.01 * (i / 8));
+      if (kind == 0)  // camera rays: one origin, directions a few pixels apart
+        rays.push_back(ray<T>(eye, target - eye + vec3<T>(a, b, 0)));
+      else if (kind == 1)  // origins spread over the whole scene, nearly parallel
+        rays.push_back(ray<T>(vec3<T>(T(4 * u(rng)), T(1.5 * u(rng)), T(-3 + 2 * u(rng))),
+                              vec3<T>(T(-0.5), T(-0.6), T(0.4 + a))));
+      else  // all directions: not coherent
+        rays.push_back(ray<T>(eye, vec3<T>(T(u(rng)), T(u(rng)), T(u(rng)))));
+    }
+    for (bool any_hit : {false, true}) ++outcomes[check_packet(ps, rays, any_hit)];
+  }
+  CAPTURE(outcomes[kOneWalk]);
+  CAPTURE(outcomes[kGaveUp]);
+  CAPTURE(outcomes[kRayByRay]);
+  CHECK(outcomes[kOneWalk] > 0);  // every way through the packet walk is taken
+  CHECK(outcomes[kGaveUp] > 0);
+  CHECK(outcomes[kRayByRay] > 0);
+}
+
+template <class T>
+twinray::Image<T> per_pixel(const twinray::PackedScene<T>& ps,
+                            const twinray::RenderRequest<T>& request) {
+  const auto frame = twinray::pack_frame(ps.summary(), request);
+  const auto ref = frame.ref(ps);
+  const auto& p = frame.params;
+  twinray::Image<T> image;
+  image.resize(p.rect_w, p.rect_h);
+  for (int y = 0; y < p.rect_h; ++y)
+    for (int x = 0; x < p.rect_w; ++x)
+      K<T>::tr_store_rgb(image.rgb.data(), p.rect_w, x, y,
+                         K<T>::tr_render_pixel(&ref, p.rect_x + x, p.rect_y + y));
+  return image;
+}
+
+template <class T>
+bool same_bits(const twinray::Image<T>& a, const twinray::Image<T>& b) {
+  return a.rgb.size() == b.rgb.size() && !a.rgb.empty() &&
+         std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(T)) == 0;
+}
+
+template <class T>
+void check_images() {
+  auto scene = test_scene<T>();
+  for (int width : twinray::bvh::kWidths) {
+    CAPTURE(width);
+    const auto ps = std::make_shared<const twinray::PackedScene<T>>(packed(scene, width));
+    twinray::RenderOptions options;
+    options.backend = twinray::Backend::Cpu;
+    options.specialize = false;  // the instantiation per_pixel calls (TR_F_ALL)
+    options.log = [](const std::string&) {};
+    auto cpu = twinray::make_backend<T>(options);
+    cpu->set_scene(ps);
+    auto check = [&](const twinray::RenderRequest<T>& request) {
+      const auto image = cpu->render(request);
+      CHECK(same_bits(image, per_pixel(*ps, request)));
+    };
+    auto camera = bvh_test::test_camera<T>(61, 45);
+    // The image's middle column and row cross the axes: those blocks go ray by ray.
+    camera.look_at = vec3<T>(camera.position.x, camera.position.y, T(-2));
+    check({camera, scene.lights, options});
+    auto jittered = options;
+    jittered.spp = 3;
+    jittered.sampler = twinray::Sampler::Stratified;
+    jittered.seed = 5;
+    check({bvh_test::test_camera<T>(40, 30), scene.lights, jittered});
+    auto ortho = bvh_test::test_camera<T>(40, 30);
+    ortho.projection = twinray::Projection::Orthographic;
+    check({ortho, scene.lights, options});
+    check({bvh_test::test_camera<T>(64, 48), scene.lights, options, {13, 7, 27, 19}});
+    std::vector<twinray::PointLight<T>> many;  // 34 lights: two traced inside shading
+    for (int i = 0; i < 34; ++i)
+      many.push_back(
+          {vec3<T>(T(-4 + 0.25 * i), T(-3 - 0.05 * i), T(2 - 0.1 * i)), T(1), vec3<T>(1, 1, 1)});
+    check({bvh_test::test_camera<T>(24, 20), many, options});
+  }
+}
+
+}  // namespace
+
+TEST_CASE_TEMPLATE("packet queries give each ray what its own walk gives", T, float, double) {
+  for (int width : twinray::bvh::kWidths) {
+    CAPTURE(width);
+    check_queries<T>(width);
+  }
+}
+
+TEST_CASE_TEMPLATE("blocks traced a segment at a time give the per-pixel image's bits", T, float,
+                   double) {
+  check_images<T>();
+}
