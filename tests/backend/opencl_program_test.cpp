@@ -128,12 +128,13 @@ TEST_CASE("a render's program holds only the kernels it launches") {
   std::lock_guard<std::mutex> lock(ctx.mutex());
   const std::pair<int, std::vector<std::string>> cases[] = {
       {TR_ENTRY_RENDER, {"tr_kernel_render"}},
+      {TR_ENTRY_BLOCKS, {"tr_kernel_render_blocks"}},
       {TR_ENTRY_AOV, {"tr_kernel_aov"}},
       {TR_ENTRY_ADAPTIVE,
        {"tr_kernel_adaptive_first", "tr_kernel_adaptive_mark", "tr_kernel_adaptive_refine"}},
       {TR_ENTRY_ALL,
        {"tr_kernel_adaptive_first", "tr_kernel_adaptive_mark", "tr_kernel_adaptive_refine",
-        "tr_kernel_aov", "tr_kernel_layout_sizes", "tr_kernel_render",
+        "tr_kernel_aov", "tr_kernel_layout_sizes", "tr_kernel_render", "tr_kernel_render_blocks",
         "tr_kernel_sample_positions"}}};
   for (const auto& [entry_points, expected] : cases) {
     CAPTURE(entry_points);

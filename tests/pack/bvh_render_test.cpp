@@ -2,6 +2,7 @@
 // and the same image, bit for bit, on the CPU and OpenCL backends in float and double.
 #include <doctest/doctest.h>
 
+#include <cstdlib>
 #include <cstring>
 #include <string>
 
@@ -99,4 +100,24 @@ TEST_CASE_TEMPLATE("bvh: CPU and OpenCL BVH renders are bit-identical", T, float
     auto ocl = render(*p, twinray::Backend::OpenCL);
     CHECK(same_bits(cpu, ocl));
   }
+}
+
+TEST_CASE_TEMPLATE("bvh: both OpenCL kernels, pixel and blocks, give the CPU backend's bits", T,
+                   float, double) {
+  if (!have_opencl()) {
+    MESSAGE("no OpenCL device: skipped");
+    return;
+  }
+  // tr_kernel_render (a pixel per work-item, for GPUs) and tr_kernel_render_blocks
+  // (packets of an 8x8 block, for CPU devices); TWINRAY_OPENCL_KERNEL picks one.
+  auto c = packed<T>(300, 300, 25u);
+  c.options.spp = 2;
+  c.camera = bvh_test::test_camera<T>(61, 43);  // blocks cut at the right and bottom
+  const auto cpu = render(c, twinray::Backend::Cpu);
+  for (const char* kernel : {"pixel", "blocks"}) {
+    CAPTURE(kernel);
+    REQUIRE(setenv("TWINRAY_OPENCL_KERNEL", kernel, 1) == 0);
+    CHECK(same_bits(cpu, render(c, twinray::Backend::OpenCL)));
+  }
+  unsetenv("TWINRAY_OPENCL_KERNEL");
 }

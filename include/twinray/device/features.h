@@ -34,8 +34,9 @@
  * holds one render's kernels is ready sooner (docs/performance.md, "PoCL program
  * build, cold and cached"). */
 #define TR_ENTRY_ALL 0
-#define TR_ENTRY_RENDER 1   /* tr_kernel_render */
+#define TR_ENTRY_RENDER 1   /* tr_kernel_render: a pixel per work-item */
 #define TR_ENTRY_AOV 2      /* tr_kernel_aov */
 #define TR_ENTRY_ADAPTIVE 3 /* tr_kernel_adaptive_first, _mark and _refine */
+#define TR_ENTRY_BLOCKS 4   /* tr_kernel_render_blocks: an 8x8 block per work-item */
 
 #endif /* TWINRAY_DEVICE_FEATURES_H */

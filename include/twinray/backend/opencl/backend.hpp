@@ -7,6 +7,7 @@
 
 #include <array>
 #include <chrono>
+#include <cstdlib>
 #include <cstring>
 #include <memory>
 #include <mutex>
@@ -95,6 +96,19 @@ class OpenCLBackend final : public RenderBackend<T> {
   }
   const SceneBuffers& scene_buffers() const { return buffers_; }
 
+  // Whether shaded frames run tr_kernel_render_blocks (an 8x8 block per work-item,
+  // traced in packets as on the CPU backend) rather than tr_kernel_render (a pixel per
+  // work-item): on CPU devices, where a work-item is an iteration of a thread's loop
+  // and the packets pay as they do in C++. GPUs keep a pixel per work-item: a packet's
+  // loops would diverge across a warp. TWINRAY_OPENCL_KERNEL=pixel or =blocks chooses
+  // (both give the same bits: tests/pack/bvh_render_test.cpp).
+  bool renders_blocks() const {
+    const char* kernel = std::getenv("TWINRAY_OPENCL_KERNEL");
+    if (kernel && std::string(kernel) == "pixel") return false;
+    if (kernel && std::string(kernel) == "blocks") return true;
+    return ctx_.info().is_cpu;
+  }
+
   void render_into(const RenderRequest<T>& request, Image<T>& image,
                    RenderInfo* info = nullptr) override {
     using clock = std::chrono::steady_clock;
@@ -109,8 +123,9 @@ class OpenCLBackend final : public RenderBackend<T> {
     // The program holds only the kernels this render launches (TR_ENTRY_*); the launch
     // below follows the same choice.
     const int entry_points = p.adaptive_spp > 0                         ? TR_ENTRY_ADAPTIVE
-                             : request.options.output == Output::Shaded ? TR_ENTRY_RENDER
-                                                                        : TR_ENTRY_AOV;
+                             : request.options.output != Output::Shaded ? TR_ENTRY_AOV
+                             : renders_blocks()                         ? TR_ENTRY_BLOCKS
+                                                                        : TR_ENTRY_RENDER;
     ProgramCache::Entry& program = ctx_.programs().get(
         build_options(dev, features, sizeof(T) == 8, entry_points), &built_now, &build_ms);
 
@@ -144,7 +159,7 @@ class OpenCLBackend final : public RenderBackend<T> {
     if (entry_points == TR_ENTRY_ADAPTIVE)
       refined = launch_adaptive(program.program, frame, &transfer_ms);
     else
-      launch_uniform(program.program, request.options.output, p);
+      launch_uniform(program.program, request.options.output, entry_points, p);
 
     const auto t_read = clock::now();
     if (in_place) {
@@ -203,9 +218,12 @@ class OpenCLBackend final : public RenderBackend<T> {
     for (cl_uint i = 0; i < kSceneArgs; ++i) set_arg(kernel, i, sizeof(cl_mem), &args[i]);
   }
 
-  void launch_uniform(cl_program program, Output output, const Params& p) {
+  void launch_uniform(cl_program program, Output output, int entry_points, const Params& p) {
     const bool shaded = output == Output::Shaded;
-    Kernels kernels(program, {shaded ? "tr_kernel_render" : "tr_kernel_aov"});
+    const bool blocks = entry_points == TR_ENTRY_BLOCKS;
+    Kernels kernels(program, {blocks   ? "tr_kernel_render_blocks"
+                              : shaded ? "tr_kernel_render"
+                                       : "tr_kernel_aov"});
     cl_kernel k = kernels[0];
     set_scene_args(k);
     cl_mem out = output_.mem();
@@ -214,7 +232,10 @@ class OpenCLBackend final : public RenderBackend<T> {
       cl_int aov = device_aov(output);
       set_arg(k, kSceneArgs + 1, sizeof aov, &aov);
     }
-    launch_2d(k, p.rect_w, p.rect_h, "clEnqueueNDRangeKernel");
+    if (blocks)
+      launch_2d(k, (p.rect_w + 7) / 8, (p.rect_h + 7) / 8, "clEnqueueNDRangeKernel (blocks)");
+    else
+      launch_2d(k, p.rect_w, p.rect_h, "clEnqueueNDRangeKernel");
     check(clFinish(ctx_.queue()), "clFinish");  // so the read times the copy alone
   }
 
