@@ -16,7 +16,7 @@
  * lane, and tests the primitives only if it passes. Each ray thus offers its primitives
  * to its own nearest hit (tr_offer_hit), a superset of those its single-ray walk
  * offers that still holds the winner: the image is the same bits as the single-ray
- * walk's (tests/device/packet_test.cpp). */
+ * walk's (tests/pack/packet_test.cpp). */
 
 /* Fills the packet's derived fields from pk->ray[0 .. n) (pk->t and pk->prim are the
  * caller's: each ray's tmax and -1). Returns whether the packet can be walked as one: every
