@@ -55,16 +55,16 @@ __kernel void tr_kernel_render(TR_SCENE_ARGS, __global real* out) {
 #endif
 
 #if TR_HOLDS(TR_ENTRY_BLOCKS)
-/* One work-item per 8x8 block of the rectangle, traced a segment at a time in packets
+/* One work-item per TR_BLOCK_SIDE^2 block of the rectangle, traced a segment at a time in packets
  * (tr_render_block, as on the CPU backend): for CPU devices, where a work-item is a
  * thread's loop iteration and the packet's shared walk pays as it does in C++. */
 __kernel void tr_kernel_render_blocks(TR_SCENE_ARGS, __global real* out) {
-  int x0 = (int)get_global_id(0) * 8, y0 = (int)get_global_id(1) * 8;
+  int x0 = (int)get_global_id(0) * TR_BLOCK_SIDE, y0 = (int)get_global_id(1) * TR_BLOCK_SIDE;
   if (x0 >= params->rect_w || y0 >= params->rect_h) return;
-  int w = min(8, params->rect_w - x0), h = min(8, params->rect_h - y0);
+  int w = min(TR_BLOCK_SIDE, params->rect_w - x0), h = min(TR_BLOCK_SIDE, params->rect_h - y0);
   TrSceneRef s = tr_scene_ref(TR_SCENE_ARG_NAMES);
   TrBlockScratch scratch;
-  vec3 colors[64];
+  vec3 colors[TR_BLOCK_SIDE * TR_BLOCK_SIDE];
   tr_render_block(&s, &scratch, params->rect_x + x0, params->rect_y + y0, w, h, colors);
   for (int j = 0; j < w * h; ++j)
     tr_store_rgb(out, params->rect_w, x0 + j % w, y0 + j / w, colors[j]);

@@ -76,9 +76,6 @@ void for_each_pixel(int x0, int y0, int width, int height, F&& pixel) {
   });
 }
 
-// Side of the pixel blocks whose camera rays are walked as one packet.
-constexpr int kPacketBlock = 8;
-
 inline std::string cpu_name() {
   return "CPU, " + std::to_string(std::thread::hardware_concurrency()) + " hardware threads";
 }
@@ -137,11 +134,11 @@ class CpuBackend final : public RenderBackend<T> {
       // Blocks of pixels traced a segment at a time (device/trace.h tr_render_block);
       // the same values as pixel by pixel.
       using Scratch = typename device::Code<T>::BlockScratch;
-      static_assert(kPacketBlock * kPacketBlock <= TR_PACKET_MAX, "a block is one packet");
-      for_each_block(p.rect_x, p.rect_y, p.rect_w, p.rect_h, kPacketBlock, kPacketBlock,
+      static_assert(TR_BLOCK_SIDE * TR_BLOCK_SIDE <= TR_PACKET_MAX, "a block is one packet");
+      for_each_block(p.rect_x, p.rect_y, p.rect_w, p.rect_h, TR_BLOCK_SIDE, TR_BLOCK_SIDE,
                      [&](int bx, int by, int bw, int bh) {
                        thread_local Scratch scratch;
-                       glm::vec<3, T> colors[kPacketBlock * kPacketBlock];
+                       glm::vec<3, T> colors[TR_BLOCK_SIDE * TR_BLOCK_SIDE];
                        K::tr_render_block(&scene, &scratch, bx, by, bw, bh, colors);
                        for (int j = 0; j < bw * bh; ++j)
                          K::tr_store_rgb(image.rgb.data(), p.rect_w, bx + j % bw - p.rect_x,
@@ -150,9 +147,8 @@ class CpuBackend final : public RenderBackend<T> {
       return;
     }
     for_each_pixel(p.rect_x, p.rect_y, p.rect_w, p.rect_h, [&](int x, int y) {
-      auto c = output == Output::Shaded ? K::tr_render_pixel(&scene, x, y)
-                                        : K::tr_render_aov(&scene, x, y, aov);
-      K::tr_store_rgb(image.rgb.data(), p.rect_w, x - p.rect_x, y - p.rect_y, c);
+      K::tr_store_rgb(image.rgb.data(), p.rect_w, x - p.rect_x, y - p.rect_y,
+                      K::tr_render_aov(&scene, x, y, aov));
     });
   }
 

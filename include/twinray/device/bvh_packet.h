@@ -22,27 +22,7 @@
  * caller's: each ray's tmax and -1). Returns whether the packet can be walked as one: every
  * direction component nonzero and of the same sign across the packet, every reciprocal finite. */
 TR_FN int tr_packet_begin(TrRayPacket* pk) {
-  int coherent = pk->n > 0;
-  vec3 d0 = pk->ray[0].d;
-  for (int r = 0; r < pk->n; ++r) {
-    TrRay ray = pk->ray[r];
-    TrBoxRay br = tr_box_ray(ray);
-    pk->ox[r] = ray.o.x;
-    pk->oy[r] = ray.o.y;
-    pk->oz[r] = ray.o.z;
-    pk->ix[r] = br.inv_d.x;
-    pk->iy[r] = br.inv_d.y;
-    pk->iz[r] = br.inv_d.z;
-    pk->fx[r] = br.inv_d_far.x;
-    pk->fy[r] = br.inv_d_far.y;
-    pk->fz[r] = br.inv_d_far.z;
-    if (!(ray.d.x * d0.x > TR_R(0.0) && ray.d.y * d0.y > TR_R(0.0) && ray.d.z * d0.z > TR_R(0.0)))
-      coherent = 0;
-    if (!(fabs(br.inv_d_far.x) < TR_R(INFINITY) && fabs(br.inv_d_far.y) < TR_R(INFINITY) &&
-          fabs(br.inv_d_far.z) < TR_R(INFINITY)))
-      coherent = 0;
-  }
-  if (!coherent) return 0;
+  if (pk->n <= 0) return 0;
   TrBoxRay first = tr_box_ray(pk->ray[0]);
   pk->near_x = first.near_x;
   pk->near_y = first.near_y;
@@ -53,18 +33,33 @@ TR_FN int tr_packet_begin(TrRayPacket* pk) {
   pk->o_lo = pk->o_hi = pk->ray[0].o;
   pk->i_lo = pk->i_hi = first.inv_d;
   pk->f_lo = pk->f_hi = first.inv_d_far;
-  for (int r = 1; r < pk->n; ++r) {
-    vec3 o = TR_VEC3(pk->ox[r], pk->oy[r], pk->oz[r]);
-    vec3 i = TR_VEC3(pk->ix[r], pk->iy[r], pk->iz[r]);
-    vec3 f = TR_VEC3(pk->fx[r], pk->fy[r], pk->fz[r]);
-    pk->o_lo = tr_min3(pk->o_lo, o);
-    pk->o_hi = tr_max3(pk->o_hi, o);
-    pk->i_lo = tr_min3(pk->i_lo, i);
-    pk->i_hi = tr_max3(pk->i_hi, i);
-    pk->f_lo = tr_min3(pk->f_lo, f);
-    pk->f_hi = tr_max3(pk->f_hi, f);
+  vec3 d0 = pk->ray[0].d;
+  int coherent = 1;
+  for (int r = 0; r < pk->n; ++r) {
+    TrRay ray = pk->ray[r];
+    TrBoxRay br = r == 0 ? first : tr_box_ray(ray);
+    pk->ox[r] = ray.o.x;
+    pk->oy[r] = ray.o.y;
+    pk->oz[r] = ray.o.z;
+    pk->ix[r] = br.inv_d.x;
+    pk->iy[r] = br.inv_d.y;
+    pk->iz[r] = br.inv_d.z;
+    pk->fx[r] = br.inv_d_far.x;
+    pk->fy[r] = br.inv_d_far.y;
+    pk->fz[r] = br.inv_d_far.z;
+    pk->o_lo = tr_min3(pk->o_lo, ray.o);
+    pk->o_hi = tr_max3(pk->o_hi, ray.o);
+    pk->i_lo = tr_min3(pk->i_lo, br.inv_d);
+    pk->i_hi = tr_max3(pk->i_hi, br.inv_d);
+    pk->f_lo = tr_min3(pk->f_lo, br.inv_d_far);
+    pk->f_hi = tr_max3(pk->f_hi, br.inv_d_far);
+    if (!(ray.d.x * d0.x > TR_R(0.0) && ray.d.y * d0.y > TR_R(0.0) && ray.d.z * d0.z > TR_R(0.0)))
+      coherent = 0;
+    if (!(fabs(br.inv_d_far.x) < TR_R(INFINITY) && fabs(br.inv_d_far.y) < TR_R(INFINITY) &&
+          fabs(br.inv_d_far.z) < TR_R(INFINITY)))
+      coherent = 0;
   }
-  return 1;
+  return coherent;
 }
 
 /* The least and greatest of the rounded products x y over x in [x_lo, x_hi] and y in
@@ -104,15 +99,7 @@ TR_FN_INLINE unsigned tr_packet_hits_boxes(TR_GLOBAL const real* boxes, const Tr
     real fx = tr_interval_mul_hi(far_x[k] - o_hi.x, far_x[k] - o_lo.x, f_lo.x, f_hi.x);
     real fy = tr_interval_mul_hi(far_y[k] - o_hi.y, far_y[k] - o_lo.y, f_lo.y, f_hi.y);
     real fz = tr_interval_mul_hi(far_z[k] - o_hi.z, far_z[k] - o_lo.z, f_lo.z, f_hi.z);
-    real t0 = TR_R(0.0), t1 = tmax_grown;
-    t0 = nx > t0 ? nx : t0;
-    t0 = ny > t0 ? ny : t0;
-    t0 = nz > t0 ? nz : t0;
-    t1 = fx < t1 ? fx : t1;
-    t1 = fy < t1 ? fy : t1;
-    t1 = fz < t1 ? fz : t1;
-    t_entry[k] = t0;
-    mask |= (unsigned)(t0 <= t1) << k;
+    mask |= (unsigned)tr_slab_enters(nx, ny, nz, fx, fy, fz, tmax_grown, &t_entry[k]) << k;
   }
   return mask;
 }
@@ -125,7 +112,7 @@ TR_FN_INLINE int tr_packet_rays_enter_box(TR_GLOBAL const real* boxes, const TrR
   real bnx = boxes[pk->near_x * W + k], bny = boxes[pk->near_y * W + k];
   real bnz = boxes[pk->near_z * W + k], bfx = boxes[pk->far_x * W + k];
   real bfy = boxes[pk->far_y * W + k], bfz = boxes[pk->far_z * W + k];
-  real grow = TR_R(1.0) + TR_R(2.0) * tr_gamma(3);
+  real grow = tr_box_grow();
   int n = pk->n;
   TR_SIMD_LOOP
   for (int r = 0; r < n; ++r) {
@@ -135,14 +122,8 @@ TR_FN_INLINE int tr_packet_rays_enter_box(TR_GLOBAL const real* boxes, const TrR
     real fx = (bfx - pk->ox[r]) * pk->fx[r];
     real fy = (bfy - pk->oy[r]) * pk->fy[r];
     real fz = (bfz - pk->oz[r]) * pk->fz[r];
-    real t0 = TR_R(0.0), t1 = pk->t[r] * grow;
-    t0 = nx > t0 ? nx : t0;
-    t0 = ny > t0 ? ny : t0;
-    t0 = nz > t0 ? nz : t0;
-    t1 = fx < t1 ? fx : t1;
-    t1 = fy < t1 ? fy : t1;
-    t1 = fz < t1 ? fz : t1;
-    enter[r] = t0 <= t1;
+    real t_entry;
+    enter[r] = tr_slab_enters(nx, ny, nz, fx, fy, fz, pk->t[r] * grow, &t_entry);
   }
   int count = 0;
   for (int r = 0; r < n; ++r) { /* branch-free compaction */
@@ -165,7 +146,7 @@ TR_FN_INLINE real tr_packet_tmax_grown(const TrRayPacket* pk) {
   }
   for (; r < n; ++r) m[0] = pk->t[r] > m[0] ? pk->t[r] : m[0];
   for (int j = 1; j < 8; ++j) m[0] = m[j] > m[0] ? m[j] : m[0];
-  return m[0] * (TR_R(1.0) + TR_R(2.0) * tr_gamma(3));
+  return m[0] * tr_box_grow();
 }
 
 /* Walks the W-wide BVH once for a coherent packet (tr_packet_begin returned 1). Closest
@@ -260,9 +241,8 @@ TR_FN_NOINLINE int tr_bvh_blocked(const TrSceneRef* s, const TrRay* ray, real tm
  * packet gave up) one per ray. Packets walk only the 8-wide trees both backends build
  * for CPUs (bvh::kCpuWidth): each width is a copy of the walk in every instantiation
  * of the device code, and two more widths made a rendering translation unit compile
- * 40% longer. Closest hit: each ray's
- * nearest (t, primitive) in pk->t and pk->prim. Any hit: pk->t[r] < 0 where ray r is
- * blocked. */
+ * 40% longer. Closest hit: each ray's nearest (t, primitive) in pk->t and pk->prim.
+ * Any hit: pk->t[r] < 0 where ray r is blocked. */
 TR_FN void tr_packet_bvh(const TrSceneRef* s, TrRayPacket* pk, int coherent, int any_hit) {
   if (coherent) {
     if (TR_HAS(TR_F_TRIANGLES)) {

@@ -36,12 +36,18 @@ TR_FN_INLINE void tr_offer_hit(TrNearest* nearest, real t, int prim) {
   }
 }
 
+/* 1 + 2 gamma(3): the factor the box test grows far distances and tmax by, so rounding
+ * never culls a box the ray touches (pbrt-v4 Bounds3::IntersectP). */
+TR_FN_INLINE real tr_box_grow(void) {
+  return TR_R(1.0) + TR_R(2.0) * tr_gamma(3);
+}
+
 /* The box test's view of a ray; computed once per query. */
 TR_FN_INLINE TrBoxRay tr_box_ray(TrRay ray) {
   TrBoxRay br;
   br.o = ray.o;
   br.inv_d = TR_VEC3(TR_R(1.0) / ray.d.x, TR_R(1.0) / ray.d.y, TR_R(1.0) / ray.d.z);
-  br.inv_d_far = br.inv_d * (TR_R(1.0) + TR_R(2.0) * tr_gamma(3));
+  br.inv_d_far = br.inv_d * tr_box_grow();
   br.near_x = br.inv_d.x < TR_R(0.0) ? TR_BVH_MAX_X : TR_BVH_MIN_X;
   br.near_y = (br.inv_d.y < TR_R(0.0) ? TR_BVH_MAX_X : TR_BVH_MIN_X) + 1;
   br.near_z = (br.inv_d.z < TR_R(0.0) ? TR_BVH_MAX_X : TR_BVH_MIN_X) + 2;
@@ -49,6 +55,24 @@ TR_FN_INLINE TrBoxRay tr_box_ray(TrRay ray) {
   br.far_y = (br.inv_d.y < TR_R(0.0) ? TR_BVH_MIN_X : TR_BVH_MAX_X) + 1;
   br.far_z = (br.inv_d.z < TR_R(0.0) ? TR_BVH_MIN_X : TR_BVH_MAX_X) + 2;
   return br;
+}
+
+/* The end of a slab test, from a box's six slab distances (near planes nx, ny, nz, far
+ * planes fx, fy, fz): *t_entry is where the ray enters the box (0 if it starts inside),
+ * and the result whether it does so before tmax. A NaN distance fails its compare and
+ * narrows nothing. Every box test (tr_ray_hits_boxes, and a packet's in bvh_packet.h)
+ * ends here. */
+TR_FN_INLINE int tr_slab_enters(real nx, real ny, real nz, real fx, real fy, real fz, real tmax,
+                                real* t_entry) {
+  real t0 = TR_R(0.0), t1 = tmax;
+  t0 = nx > t0 ? nx : t0;
+  t0 = ny > t0 ? ny : t0;
+  t0 = nz > t0 ? nz : t0;
+  t1 = fx < t1 ? fx : t1;
+  t1 = fy < t1 ? fy : t1;
+  t1 = fz < t1 ? fz : t1;
+  *t_entry = t0;
+  return t0 <= t1;
 }
 
 /* The slab test of one wide node's W boxes (the Williams et al. 2005 slab method; see
@@ -77,17 +101,9 @@ TR_FN_INLINE unsigned tr_ray_hits_boxes(TR_GLOBAL const real* boxes, const TrBox
     real fx = (far_x[k] - br->o.x) * br->inv_d_far.x;
     real fy = (far_y[k] - br->o.y) * br->inv_d_far.y;
     real fz = (far_z[k] - br->o.z) * br->inv_d_far.z;
-    real t0 = TR_R(0.0), t1 = tmax_grown;
-    t0 = nx > t0 ? nx : t0;
-    t0 = ny > t0 ? ny : t0;
-    t0 = nz > t0 ? nz : t0;
-    t1 = fx < t1 ? fx : t1;
-    t1 = fy < t1 ? fy : t1;
-    t1 = fz < t1 ? fz : t1;
-    t_entry[k] = t0;
-    /* Set in this loop, not from a stored array of flags: g++ then builds the mask
-     * with one vector shift and OR reduction instead of extracting W scalars. */
-    mask |= (unsigned)(t0 <= t1) << k;
+    /* The mask is set in this loop, not from a stored array of flags: g++ then builds
+     * it with one vector shift and OR reduction instead of extracting W scalars. */
+    mask |= (unsigned)tr_slab_enters(nx, ny, nz, fx, fy, fz, tmax_grown, &t_entry[k]) << k;
   }
   return mask;
 }
@@ -154,7 +170,7 @@ TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nea
   TrBoxRay box_ray = tr_box_ray(ray);
   TrTriangleRay tri_ray;
   int have_tri_ray = 0;
-  real grow = TR_R(1.0) + TR_R(2.0) * tr_gamma(3);
+  real grow = tr_box_grow();
   int stack_node[TR_BVH_STACK_SIZE];
   real stack_t[TR_BVH_STACK_SIZE];
   int top = 0;

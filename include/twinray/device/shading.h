@@ -68,9 +68,8 @@ TR_FN TrLightView tr_light_view(const TrSceneRef* s, const TrHit* hit, vec3 n, i
 TR_FN int tr_shading_needs_shadow_ray(const TrSceneRef* s, const TrHit* hit, vec3 ray_dir, int i,
                                       TrRay* shadow, real* tmax) {
   if (!tr_use(s, TR_F_SHADOWS)) return 0;
-  if (tr_light_view(s, hit, tr_facing_normal(s, hit, ray_dir), i).lit != TR_LIGHT_ALL) return 0;
-  TR_GLOBAL const TrLight* light = &s->lights[i];
-  return tr_shadow_ray(hit, TR_VEC3(light->px, light->py, light->pz), shadow, tmax);
+  TrLightView lv = tr_light_view(s, hit, tr_facing_normal(s, hit, ray_dir), i);
+  return lv.lit == TR_LIGHT_ALL && tr_shadow_ray(hit, lv.pos, shadow, tmax);
 }
 
 /* The hit's color. Lights below n_known have their shadow tests answered in bit i of

@@ -158,6 +158,7 @@ typedef struct TrNearest {
  * nearest hit, and, for a coherent packet, the bounds of origins and reciprocal
  * directions over all rays and the slab planes they share. */
 #define TR_PACKET_MAX 64
+#define TR_BLOCK_SIDE 8 /* tr_render_block's blocks, TR_BLOCK_SIDE^2 <= TR_PACKET_MAX rays */
 typedef struct TrRayPacket {
   int n;
   TrRay ray[TR_PACKET_MAX];

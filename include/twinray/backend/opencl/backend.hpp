@@ -233,7 +233,8 @@ class OpenCLBackend final : public RenderBackend<T> {
       set_arg(k, kSceneArgs + 1, sizeof aov, &aov);
     }
     if (blocks)
-      launch_2d(k, (p.rect_w + 7) / 8, (p.rect_h + 7) / 8, "clEnqueueNDRangeKernel (blocks)");
+      launch_2d(k, (p.rect_w + TR_BLOCK_SIDE - 1) / TR_BLOCK_SIDE,
+                (p.rect_h + TR_BLOCK_SIDE - 1) / TR_BLOCK_SIDE, "clEnqueueNDRangeKernel (blocks)");
     else
       launch_2d(k, p.rect_w, p.rect_h, "clEnqueueNDRangeKernel");
     check(clFinish(ctx_.queue()), "clFinish");  // so the read times the copy alone
