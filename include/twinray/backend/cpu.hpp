@@ -188,3 +188,15 @@ class CpuBackend final : public RenderBackend<T> {
 
 }  // namespace cpu
 }  // namespace twinray
+
+// A translation unit that makes a CPU backend compiles the renderer for every
+// specialized Features mask, in float and double: over a minute of g++ -O3. A program
+// of several such translation units (or several programs built with the same flags) can
+// compile it once: define TWINRAY_CPU_BACKEND_EXTERN in all of them, and compile
+//   template class twinray::cpu::CpuBackend<float>;   (and <double>)
+// in one translation unit with the same flags (CMake: twinray_cpu_instances(),
+// cmake/cpu_instances.cmake; docs/adopting.md).
+#ifdef TWINRAY_CPU_BACKEND_EXTERN
+extern template class twinray::cpu::CpuBackend<float>;
+extern template class twinray::cpu::CpuBackend<double>;
+#endif

@@ -1,0 +1,21 @@
+# twinray_cpu_instances(NAME [compile options...]): a static library that holds the CPU
+# backend compiled once in float and once in double (explicit instantiations, one
+# translation unit each, so they build in parallel), and passes on the define
+# TWINRAY_CPU_BACKEND_EXTERN that keeps every translation unit linking it from
+# compiling its own copy (backend/cpu.hpp). The options must be those of the code that
+# links it (-march=native, sanitizers come from the build's flags), so each set of flags
+# gets a library of its own.
+set(TWINRAY_CPU_INSTANCE_TEMPLATE ${CMAKE_CURRENT_LIST_DIR}/cpu_backend_instance.cpp.in)
+
+function(twinray_cpu_instances name)
+  set(sources)
+  foreach(TWINRAY_INSTANCE_REAL float double)
+    set(source ${CMAKE_CURRENT_BINARY_DIR}/${name}_${TWINRAY_INSTANCE_REAL}.cpp)
+    configure_file(${TWINRAY_CPU_INSTANCE_TEMPLATE} ${source} @ONLY)
+    list(APPEND sources ${source})
+  endforeach()
+  add_library(${name} STATIC ${sources})
+  target_link_libraries(${name} PUBLIC twinray::twinray)
+  target_compile_definitions(${name} PUBLIC TWINRAY_CPU_BACKEND_EXTERN=1)
+  target_compile_options(${name} PRIVATE ${ARGN})
+endfunction()
