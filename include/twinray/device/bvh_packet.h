@@ -153,7 +153,8 @@ TR_FN_INLINE real tr_packet_tmax_grown(const TrRayPacket* pk) {
  * hit (any_hit = 0): offers each ray the primitives of the leaves its own box test
  * enters. Any hit: a ray stops at its first primitive in (0, pk->t[r]), which sets
  * pk->t[r] to -1; a negative t fails every box test after that. Inner children are
- * visited nearest first by the packet's entry bound; a popped node is dropped once
+ * visited as in the ray walk (tr_walk_next: nearest first by the packet's entry bound
+ * for closest hits, in bit order for any hits); a popped node is dropped once
  * every ray's nearest hit lies before it, and the walk ends when every ray is done.
  * Returns 1 when done; 0 when the packet stops paying for itself and gives up, after
  * 4 n + 16 nodes, or once 16 leaves have been tested and fewer rays entered them than
@@ -216,7 +217,7 @@ TR_FN_INLINE int tr_packet_walk_wide(const TrSceneRef* s, TrRayPacket* pk, int a
       tmax_grown = tr_packet_tmax_grown(pk);
       if (tmax_grown < TR_R(0.0)) break; /* any hit: every ray is blocked */
     }
-    int next = tr_walk_next(inner, t_entry, first, tmax_grown, stack_node, stack_t, &top);
+    int next = tr_walk_next(inner, t_entry, first, tmax_grown, !any_hit, stack_node, stack_t, &top);
     if (next < 0) break;
     index = next;
   }
