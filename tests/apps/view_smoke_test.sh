@@ -17,6 +17,8 @@ fail() {
   echo "view_smoke_test: $*" >&2
   echo "--- viewer's stderr:" >&2
   cat "$work/view.err" >&2 || true
+  echo "--- Xvfb's stderr:" >&2
+  cat "$work/xvfb.err" >&2 || true
   exit 1
 }
 wait_for() {  # wait_for SECONDS TEST...
@@ -28,11 +30,18 @@ wait_for() {  # wait_for SECONDS TEST...
   done
 }
 
-# Xvfb picks a free display and writes its number to fd 3.
-Xvfb -displayfd 3 -screen 0 640x480x24 -nolisten tcp 3>"$work/display" 2>"$work/xvfb.err" &
+# Xvfb picks a free display and writes its number to fd 3. -noreset: by default an X
+# server resets when its last client leaves, and a connection made during the reset
+# fails. The xdotool calls below come and go while the viewer starts, and SDL then
+# found no X display in about one run in four.
+Xvfb -displayfd 3 -screen 0 640x480x24 -nolisten tcp -noreset 3>"$work/display" \
+  2>"$work/xvfb.err" &
 xvfb_pid=$!
 wait_for 20 test -s "$work/display" || fail "Xvfb did not start: $(cat "$work/xvfb.err")"
 export DISPLAY=":$(head -n1 "$work/display")"
+# The server answers a client before the viewer starts.
+wait_for 20 xdotool getdisplaygeometry >/dev/null 2>&1 ||
+  fail "Xvfb on $DISPLAY does not answer: $(cat "$work/xvfb.err")"
 
 # Software drawing: SDL then keeps the X window it first made (with OpenGL it may
 # replace it once, which would leave a stale window id here).
