@@ -4,14 +4,13 @@
 # TWINRAY_CPU_BACKEND_EXTERN that keeps every translation unit linking it from
 # compiling its own copy (backend/cpu.hpp). The options must be those of the code that
 # links it (-march=native, sanitizers come from the build's flags), so each set of flags
-# gets a library of its own.
-set(TWINRAY_CPU_INSTANCE_TEMPLATE ${CMAKE_CURRENT_LIST_DIR}/cpu_backend_instance.cpp.in)
-
+# gets a library of its own. A project that adds twinray with add_subdirectory() can
+# call it too.
 function(twinray_cpu_instances name)
   set(sources)
   foreach(TWINRAY_INSTANCE_REAL float double)
     set(source ${CMAKE_CURRENT_BINARY_DIR}/${name}_${TWINRAY_INSTANCE_REAL}.cpp)
-    configure_file(${TWINRAY_CPU_INSTANCE_TEMPLATE} ${source} @ONLY)
+    configure_file(${CMAKE_CURRENT_FUNCTION_LIST_DIR}/cpu_backend_instance.cpp.in ${source} @ONLY)
     list(APPEND sources ${source})
   endforeach()
   add_library(${name} STATIC ${sources})
