@@ -24,12 +24,7 @@
 TR_FN int tr_packet_begin(TrRayPacket* pk) {
   if (pk->n <= 0) return 0;
   TrBoxRay first = tr_box_ray(pk->ray[0]);
-  pk->near_x = first.near_x;
-  pk->near_y = first.near_y;
-  pk->near_z = first.near_z;
-  pk->far_x = first.far_x;
-  pk->far_y = first.far_y;
-  pk->far_z = first.far_z;
+  pk->rows = first.rows;
   pk->o_lo = pk->o_hi = pk->ray[0].o;
   pk->i_lo = pk->i_hi = first.inv_d;
   pk->f_lo = pk->f_hi = first.inv_d_far;
@@ -82,23 +77,18 @@ TR_FN_INLINE real tr_interval_mul_hi(real x_lo, real x_hi, real y_lo, real y_hi)
  * t_entry[k] a lower bound on where any of them enters it. */
 TR_FN_INLINE unsigned tr_packet_hits_boxes(TR_GLOBAL const real* boxes, const TrRayPacket* pk,
                                            real tmax_grown, int W, real* t_entry) {
-  TR_GLOBAL const real* near_x = boxes + pk->near_x * W;
-  TR_GLOBAL const real* near_y = boxes + pk->near_y * W;
-  TR_GLOBAL const real* near_z = boxes + pk->near_z * W;
-  TR_GLOBAL const real* far_x = boxes + pk->far_x * W;
-  TR_GLOBAL const real* far_y = boxes + pk->far_y * W;
-  TR_GLOBAL const real* far_z = boxes + pk->far_z * W;
+  TrBoxPlanes p = tr_box_planes(boxes, pk->rows, W);
   vec3 o_lo = pk->o_lo, o_hi = pk->o_hi, i_lo = pk->i_lo, i_hi = pk->i_hi;
   vec3 f_lo = pk->f_lo, f_hi = pk->f_hi;
   unsigned mask = 0u;
   TR_SIMD_LOOP
   for (int k = 0; k < W; ++k) {
-    real nx = tr_interval_mul_lo(near_x[k] - o_hi.x, near_x[k] - o_lo.x, i_lo.x, i_hi.x);
-    real ny = tr_interval_mul_lo(near_y[k] - o_hi.y, near_y[k] - o_lo.y, i_lo.y, i_hi.y);
-    real nz = tr_interval_mul_lo(near_z[k] - o_hi.z, near_z[k] - o_lo.z, i_lo.z, i_hi.z);
-    real fx = tr_interval_mul_hi(far_x[k] - o_hi.x, far_x[k] - o_lo.x, f_lo.x, f_hi.x);
-    real fy = tr_interval_mul_hi(far_y[k] - o_hi.y, far_y[k] - o_lo.y, f_lo.y, f_hi.y);
-    real fz = tr_interval_mul_hi(far_z[k] - o_hi.z, far_z[k] - o_lo.z, f_lo.z, f_hi.z);
+    real nx = tr_interval_mul_lo(p.near_x[k] - o_hi.x, p.near_x[k] - o_lo.x, i_lo.x, i_hi.x);
+    real ny = tr_interval_mul_lo(p.near_y[k] - o_hi.y, p.near_y[k] - o_lo.y, i_lo.y, i_hi.y);
+    real nz = tr_interval_mul_lo(p.near_z[k] - o_hi.z, p.near_z[k] - o_lo.z, i_lo.z, i_hi.z);
+    real fx = tr_interval_mul_hi(p.far_x[k] - o_hi.x, p.far_x[k] - o_lo.x, f_lo.x, f_hi.x);
+    real fy = tr_interval_mul_hi(p.far_y[k] - o_hi.y, p.far_y[k] - o_lo.y, f_lo.y, f_hi.y);
+    real fz = tr_interval_mul_hi(p.far_z[k] - o_hi.z, p.far_z[k] - o_lo.z, f_lo.z, f_hi.z);
     mask |= (unsigned)tr_slab_enters(nx, ny, nz, fx, fy, fz, tmax_grown, &t_entry[k]) << k;
   }
   return mask;
@@ -109,9 +99,9 @@ TR_FN_INLINE unsigned tr_packet_hits_boxes(TR_GLOBAL const real* boxes, const Tr
  * returns how many; enter[] is scratch. */
 TR_FN_INLINE int tr_packet_rays_enter_box(TR_GLOBAL const real* boxes, const TrRayPacket* pk, int W,
                                           int k, int* enter, int* rays) {
-  real bnx = boxes[pk->near_x * W + k], bny = boxes[pk->near_y * W + k];
-  real bnz = boxes[pk->near_z * W + k], bfx = boxes[pk->far_x * W + k];
-  real bfy = boxes[pk->far_y * W + k], bfz = boxes[pk->far_z * W + k];
+  TrBoxPlanes p = tr_box_planes(boxes, pk->rows, W);
+  real bnx = p.near_x[k], bny = p.near_y[k], bnz = p.near_z[k];
+  real bfx = p.far_x[k], bfy = p.far_y[k], bfz = p.far_z[k];
   real grow = tr_box_grow();
   int n = pk->n;
   TR_SIMD_LOOP

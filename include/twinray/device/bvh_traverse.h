@@ -42,18 +42,39 @@ TR_FN_INLINE real tr_box_grow(void) {
   return TR_R(1.0) + TR_R(2.0) * tr_gamma(3);
 }
 
+/* The rows of the boxes the slab test reads for reciprocal direction inv_d: per axis
+ * the max plane first where the direction is negative, else the min plane. */
+TR_FN_INLINE TrSlabRows tr_slab_rows(vec3 inv_d) {
+  TrSlabRows rows;
+  rows.near_x = inv_d.x < TR_R(0.0) ? TR_BVH_MAX_X : TR_BVH_MIN_X;
+  rows.near_y = (inv_d.y < TR_R(0.0) ? TR_BVH_MAX_X : TR_BVH_MIN_X) + 1;
+  rows.near_z = (inv_d.z < TR_R(0.0) ? TR_BVH_MAX_X : TR_BVH_MIN_X) + 2;
+  rows.far_x = inv_d.x < TR_R(0.0) ? TR_BVH_MIN_X : TR_BVH_MAX_X;
+  rows.far_y = (inv_d.y < TR_R(0.0) ? TR_BVH_MIN_X : TR_BVH_MAX_X) + 1;
+  rows.far_z = (inv_d.z < TR_R(0.0) ? TR_BVH_MIN_X : TR_BVH_MAX_X) + 2;
+  return rows;
+}
+
+/* Those rows of the node whose boxes start at `boxes`, W values each. Shared by the ray's
+ * box test and the packet's two (bvh_packet.h). */
+TR_FN_INLINE TrBoxPlanes tr_box_planes(TR_GLOBAL const real* boxes, TrSlabRows rows, int W) {
+  TrBoxPlanes p;
+  p.near_x = boxes + rows.near_x * W;
+  p.near_y = boxes + rows.near_y * W;
+  p.near_z = boxes + rows.near_z * W;
+  p.far_x = boxes + rows.far_x * W;
+  p.far_y = boxes + rows.far_y * W;
+  p.far_z = boxes + rows.far_z * W;
+  return p;
+}
+
 /* The box test's view of a ray; computed once per query. */
 TR_FN_INLINE TrBoxRay tr_box_ray(TrRay ray) {
   TrBoxRay br;
   br.o = ray.o;
   br.inv_d = TR_VEC3(TR_R(1.0) / ray.d.x, TR_R(1.0) / ray.d.y, TR_R(1.0) / ray.d.z);
   br.inv_d_far = br.inv_d * tr_box_grow();
-  br.near_x = br.inv_d.x < TR_R(0.0) ? TR_BVH_MAX_X : TR_BVH_MIN_X;
-  br.near_y = (br.inv_d.y < TR_R(0.0) ? TR_BVH_MAX_X : TR_BVH_MIN_X) + 1;
-  br.near_z = (br.inv_d.z < TR_R(0.0) ? TR_BVH_MAX_X : TR_BVH_MIN_X) + 2;
-  br.far_x = br.inv_d.x < TR_R(0.0) ? TR_BVH_MIN_X : TR_BVH_MAX_X;
-  br.far_y = (br.inv_d.y < TR_R(0.0) ? TR_BVH_MIN_X : TR_BVH_MAX_X) + 1;
-  br.far_z = (br.inv_d.z < TR_R(0.0) ? TR_BVH_MIN_X : TR_BVH_MAX_X) + 2;
+  br.rows = tr_slab_rows(br.inv_d);
   return br;
 }
 
@@ -86,21 +107,16 @@ TR_FN_INLINE int tr_slab_enters(real nx, real ny, real nz, real fx, real fy, rea
  * reciprocal, the caller grows tmax, and the builder pads every box (pack/bvh.hpp). */
 TR_FN_INLINE unsigned tr_ray_hits_boxes(TR_GLOBAL const real* boxes, const TrBoxRay* br,
                                         real tmax_grown, int W, real* t_entry) {
-  TR_GLOBAL const real* near_x = boxes + br->near_x * W;
-  TR_GLOBAL const real* near_y = boxes + br->near_y * W;
-  TR_GLOBAL const real* near_z = boxes + br->near_z * W;
-  TR_GLOBAL const real* far_x = boxes + br->far_x * W;
-  TR_GLOBAL const real* far_y = boxes + br->far_y * W;
-  TR_GLOBAL const real* far_z = boxes + br->far_z * W;
+  TrBoxPlanes p = tr_box_planes(boxes, br->rows, W);
   unsigned mask = 0u;
   TR_SIMD_LOOP
   for (int k = 0; k < W; ++k) {
-    real nx = (near_x[k] - br->o.x) * br->inv_d.x;
-    real ny = (near_y[k] - br->o.y) * br->inv_d.y;
-    real nz = (near_z[k] - br->o.z) * br->inv_d.z;
-    real fx = (far_x[k] - br->o.x) * br->inv_d_far.x;
-    real fy = (far_y[k] - br->o.y) * br->inv_d_far.y;
-    real fz = (far_z[k] - br->o.z) * br->inv_d_far.z;
+    real nx = (p.near_x[k] - br->o.x) * br->inv_d.x;
+    real ny = (p.near_y[k] - br->o.y) * br->inv_d.y;
+    real nz = (p.near_z[k] - br->o.z) * br->inv_d.z;
+    real fx = (p.far_x[k] - br->o.x) * br->inv_d_far.x;
+    real fy = (p.far_y[k] - br->o.y) * br->inv_d_far.y;
+    real fz = (p.far_z[k] - br->o.z) * br->inv_d_far.z;
     /* The mask is set in this loop, not from a stored array of flags: g++ then builds
      * it with one vector shift and OR reduction instead of extracting W scalars. */
     mask |= (unsigned)tr_slab_enters(nx, ny, nz, fx, fy, fz, tmax_grown, &t_entry[k]) << k;

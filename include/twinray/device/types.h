@@ -72,12 +72,23 @@ typedef struct TrLight {
 #define TR_BVH_MAX_X 3
 #define TR_BVH_MAX_WIDTH 8
 
+/* The rows of a wide node's boxes (bvh_boxes) that the slab test reads for a direction:
+ * per axis the plane a ray meets first (the max plane where d < 0) and the one it
+ * leaves by (bvh_traverse.h tr_slab_rows). */
+typedef struct TrSlabRows {
+  int near_x, near_y, near_z, far_x, far_y, far_z;
+} TrSlabRows;
+
+/* Those rows of one node, as pointers to its W values each (tr_box_planes). */
+typedef struct TrBoxPlanes {
+  TR_GLOBAL const real *near_x, *near_y, *near_z, *far_x, *far_y, *far_z;
+} TrBoxPlanes;
+
 /* A ray as the box test wants it: 1/d, 1/d padded for the far planes (bvh_traverse.h),
- * and per axis the index into bounds of the plane it meets first (the max plane where
- * d < 0) and of the one it leaves by. */
+ * and the rows of the boxes it reads. */
 typedef struct TrBoxRay {
   vec3 o, inv_d, inv_d_far;
-  int near_x, near_y, near_z, far_x, far_y, far_z;
+  TrSlabRows rows;
 } TrBoxRay;
 
 /* Per-frame data: camera, image, counts and run-time switches. */
@@ -169,7 +180,7 @@ typedef struct TrRayPacket {
   real t[TR_PACKET_MAX];
   int prim[TR_PACKET_MAX];
   vec3 o_lo, o_hi, i_lo, i_hi, f_lo, f_hi;
-  int near_x, near_y, near_z, far_x, far_y, far_z;
+  TrSlabRows rows; /* shared: every ray's direction has the same signs */
 } TrRayPacket;
 
 /* A point light as shading sees it from a hit (shading.h): where it is, the
