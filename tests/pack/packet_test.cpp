@@ -77,7 +77,6 @@ Outcome check_packet(const twinray::PackedScene<T>& ps,
   Outcome outcome = kRayByRay;
   if (coherent) {  // the walk alone, on a copy, to see whether it goes to the end
     auto copy = std::make_unique<typename Code<T>::BlockScratch>(*scratch);
-    for (int r = 0; r < pk.n; ++r) copy->packet.tri_ray[r] = K<T>::tr_triangle_ray(pk.ray[r]);
     outcome =
         K<T>::tr_packet_walk_wide(&ref, &copy->packet, mode, ps.bvh_width) ? kOneWalk : kGaveUp;
   }

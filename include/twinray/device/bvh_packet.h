@@ -18,43 +18,107 @@
  * offers that still holds the winner: the image is the same bits as the single-ray
  * walk's (tests/pack/packet_test.cpp). */
 
+/* The least and the greatest of a[0 .. n), n >= 1: eight running extremes side by side
+ * (one vector register) instead of one chain of dependent compares. The values are
+ * never NaN where the result matters (a NaN ray makes its packet incoherent). */
+TR_FN_INLINE real tr_lanes_min(const real* a, int n) {
+  real m[8];
+  int r = 0;
+  for (int j = 0; j < 8; ++j) m[j] = a[0];
+  for (; r + 8 <= n; r += 8) {
+    TR_SIMD_LOOP
+    for (int j = 0; j < 8; ++j) m[j] = a[r + j] < m[j] ? a[r + j] : m[j];
+  }
+  for (; r < n; ++r) m[0] = a[r] < m[0] ? a[r] : m[0];
+  for (int j = 1; j < 8; ++j) m[0] = m[j] < m[0] ? m[j] : m[0];
+  return m[0];
+}
+TR_FN_INLINE real tr_lanes_max(const real* a, int n) {
+  real m[8];
+  int r = 0;
+  for (int j = 0; j < 8; ++j) m[j] = a[0];
+  for (; r + 8 <= n; r += 8) {
+    TR_SIMD_LOOP
+    for (int j = 0; j < 8; ++j) m[j] = a[r + j] > m[j] ? a[r + j] : m[j];
+  }
+  for (; r < n; ++r) m[0] = a[r] > m[0] ? a[r] : m[0];
+  for (int j = 1; j < 8; ++j) m[0] = m[j] > m[0] ? m[j] : m[0];
+  return m[0];
+}
+
 /* Fills the packet's derived fields from pk->ray[0 .. n) (pk->t and pk->prim are the
- * caller's: each ray's tmax and -1). Returns whether the packet can be walked as one: every
- * direction component nonzero and of the same sign across the packet, every reciprocal finite. */
+ * caller's: each ray's tmax and -1): each ray's box-test view (tr_box_ray's values) and
+ * triangle-test view (tr_triangle_ray's), and the packet's bounds. Returns whether the
+ * packet can be walked as one: every direction component nonzero and of the same sign
+ * across the packet, every reciprocal finite.
+ * The rays' components go into one array each first, so that the rest runs a ray per
+ * SIMD lane: six divisions per ray, done one at a time, took a third of a packet query
+ * on the demo frame (docs/performance.md). The direction is kept in ix..iz until its
+ * reciprocal replaces it there. */
 TR_FN int tr_packet_begin(TrRayPacket* pk) {
-  if (pk->n <= 0) return 0;
-  TrBoxRay first = tr_box_ray(pk->ray[0]);
-  pk->rows = first.rows;
-  pk->o_lo = pk->o_hi = pk->ray[0].o;
-  pk->i_lo = pk->i_hi = first.inv_d;
-  pk->f_lo = pk->f_hi = first.inv_d_far;
-  vec3 d0 = pk->ray[0].d;
-  int coherent = 1;
-  for (int r = 0; r < pk->n; ++r) {
+  int n = pk->n;
+  if (n <= 0) return 0;
+  for (int r = 0; r < n; ++r) {
     TrRay ray = pk->ray[r];
-    TrBoxRay br = r == 0 ? first : tr_box_ray(ray);
     pk->ox[r] = ray.o.x;
     pk->oy[r] = ray.o.y;
     pk->oz[r] = ray.o.z;
-    pk->ix[r] = br.inv_d.x;
-    pk->iy[r] = br.inv_d.y;
-    pk->iz[r] = br.inv_d.z;
-    pk->fx[r] = br.inv_d_far.x;
-    pk->fy[r] = br.inv_d_far.y;
-    pk->fz[r] = br.inv_d_far.z;
-    pk->o_lo = tr_min3(pk->o_lo, ray.o);
-    pk->o_hi = tr_max3(pk->o_hi, ray.o);
-    pk->i_lo = tr_min3(pk->i_lo, br.inv_d);
-    pk->i_hi = tr_max3(pk->i_hi, br.inv_d);
-    pk->f_lo = tr_min3(pk->f_lo, br.inv_d_far);
-    pk->f_hi = tr_max3(pk->f_hi, br.inv_d_far);
-    if (!(ray.d.x * d0.x > TR_R(0.0) && ray.d.y * d0.y > TR_R(0.0) && ray.d.z * d0.z > TR_R(0.0)))
-      coherent = 0;
-    if (!(fabs(br.inv_d_far.x) < TR_R(INFINITY) && fabs(br.inv_d_far.y) < TR_R(INFINITY) &&
-          fabs(br.inv_d_far.z) < TR_R(INFINITY)))
-      coherent = 0;
+    pk->ix[r] = ray.d.x;
+    pk->iy[r] = ray.d.y;
+    pk->iz[r] = ray.d.z;
   }
-  return coherent;
+  vec3 d0 = TR_VEC3(pk->ix[0], pk->iy[0], pk->iz[0]);
+  real grow = tr_box_grow();
+  int incoherent = 0;
+  if (TR_HAS(TR_F_TRIANGLES)) {
+    TR_SIMD_LOOP
+    for (int r = 0; r < n; ++r) {
+      TrTriangleRay tr = tr_triangle_ray_dir(TR_VEC3(pk->ix[r], pk->iy[r], pk->iz[r]));
+      pk->tri_sx[r] = tr.sx;
+      pk->tri_sy[r] = tr.sy;
+      pk->tri_sz[r] = tr.sz;
+      pk->tri_kx[r] = tr.kx;
+      pk->tri_ky[r] = tr.ky;
+      pk->tri_kz[r] = tr.kz;
+    }
+  }
+  TR_SIMD_LOOP
+  for (int r = 0; r < n; ++r) {
+    vec3 d = TR_VEC3(pk->ix[r], pk->iy[r], pk->iz[r]);
+    /* tr_box_ray's operations */
+    vec3 inv_d = TR_VEC3(TR_R(1.0) / d.x, TR_R(1.0) / d.y, TR_R(1.0) / d.z);
+    vec3 inv_d_far = inv_d * grow;
+    pk->ix[r] = inv_d.x;
+    pk->iy[r] = inv_d.y;
+    pk->iz[r] = inv_d.z;
+    pk->fx[r] = inv_d_far.x;
+    pk->fy[r] = inv_d_far.y;
+    pk->fz[r] = inv_d_far.z;
+    incoherent |= !((d.x * d0.x > TR_R(0.0)) & (d.y * d0.y > TR_R(0.0)) & (d.z * d0.z > TR_R(0.0)));
+    incoherent |= !((fabs(inv_d_far.x) < TR_R(INFINITY)) & (fabs(inv_d_far.y) < TR_R(INFINITY)) &
+                    (fabs(inv_d_far.z) < TR_R(INFINITY)));
+  }
+  pk->o_lo = TR_VEC3(tr_lanes_min(pk->ox, n), tr_lanes_min(pk->oy, n), tr_lanes_min(pk->oz, n));
+  pk->o_hi = TR_VEC3(tr_lanes_max(pk->ox, n), tr_lanes_max(pk->oy, n), tr_lanes_max(pk->oz, n));
+  pk->i_lo = TR_VEC3(tr_lanes_min(pk->ix, n), tr_lanes_min(pk->iy, n), tr_lanes_min(pk->iz, n));
+  pk->i_hi = TR_VEC3(tr_lanes_max(pk->ix, n), tr_lanes_max(pk->iy, n), tr_lanes_max(pk->iz, n));
+  /* x -> fl(x grow) is monotonic (grow > 0), so these are the bounds of fx..fz. */
+  pk->f_lo = pk->i_lo * grow;
+  pk->f_hi = pk->i_hi * grow;
+  pk->rows = tr_slab_rows(TR_VEC3(pk->ix[0], pk->iy[0], pk->iz[0]));
+  return !incoherent;
+}
+
+/* Ray r's triangle-test view (tr_packet_begin). */
+TR_FN_INLINE TrTriangleRay tr_packet_triangle_ray(const TrRayPacket* pk, int r) {
+  TrTriangleRay tr;
+  tr.sx = pk->tri_sx[r];
+  tr.sy = pk->tri_sy[r];
+  tr.sz = pk->tri_sz[r];
+  tr.kx = pk->tri_kx[r];
+  tr.ky = pk->tri_ky[r];
+  tr.kz = pk->tri_kz[r];
+  return tr;
 }
 
 /* The least and greatest of the rounded products x y over x in [x_lo, x_hi] and y in
@@ -123,20 +187,9 @@ TR_FN_INLINE int tr_packet_rays_enter_box(TR_GLOBAL const real* boxes, const TrR
   return count;
 }
 
-/* The greatest of the packet's nearest distances, grown as the box test grows them.
- * Eight running maxima side by side instead of one chain of dependent compares (t is
- * never NaN, so the result is the same). */
+/* The greatest of the packet's nearest distances, grown as the box test grows them. */
 TR_FN_INLINE real tr_packet_tmax_grown(const TrRayPacket* pk) {
-  real m[8];
-  int n = pk->n, r = 0;
-  for (int j = 0; j < 8; ++j) m[j] = pk->t[0];
-  for (; r + 8 <= n; r += 8) {
-    TR_SIMD_LOOP
-    for (int j = 0; j < 8; ++j) m[j] = pk->t[r + j] > m[j] ? pk->t[r + j] : m[j];
-  }
-  for (; r < n; ++r) m[0] = pk->t[r] > m[0] ? pk->t[r] : m[0];
-  for (int j = 1; j < 8; ++j) m[0] = m[j] > m[0] ? m[j] : m[0];
-  return m[0] * tr_box_grow();
+  return tr_lanes_max(pk->t, pk->n) * tr_box_grow();
 }
 
 /* Walks the W-wide BVH once for a coherent packet (tr_packet_begin returned 1). Closest
@@ -190,14 +243,16 @@ TR_FN_INLINE int tr_packet_walk_wide(const TrSceneRef* s, TrRayPacket* pk, int a
           int r = rays[q];
           if (any_hit) {
             if (pk->t[r] < TR_R(0.0)) continue; /* blocked by an earlier primitive */
-            real t = tr_primitive_t(s, prim, pk->ray[r], &pk->tri_ray[r]);
+            TrTriangleRay tri_ray = tr_packet_triangle_ray(pk, r);
+            real t = tr_primitive_t(s, prim, pk->ray[r], &tri_ray);
             if (t > TR_R(0.0) && t < pk->t[r]) pk->t[r] = TR_R(-1.0);
             continue;
           }
           TrNearest nearest;
           nearest.t = pk->t[r];
           nearest.prim = pk->prim[r];
-          tr_offer_hit(&nearest, tr_primitive_t(s, prim, pk->ray[r], &pk->tri_ray[r]), prim);
+          TrTriangleRay tri_ray = tr_packet_triangle_ray(pk, r);
+          tr_offer_hit(&nearest, tr_primitive_t(s, prim, pk->ray[r], &tri_ray), prim);
           pk->t[r] = nearest.t;
           pk->prim[r] = nearest.prim;
         }
@@ -236,9 +291,6 @@ TR_FN_NOINLINE int tr_bvh_blocked(const TrSceneRef* s, const TrRay* ray, real tm
  * Any hit: pk->t[r] < 0 where ray r is blocked. */
 TR_FN void tr_packet_bvh(const TrSceneRef* s, TrRayPacket* pk, int coherent, int any_hit) {
   if (coherent) {
-    if (TR_HAS(TR_F_TRIANGLES)) {
-      for (int r = 0; r < pk->n; ++r) pk->tri_ray[r] = tr_triangle_ray(pk->ray[r]);
-    }
     if (tr_use(s, TR_F_BVH8) && tr_packet_walk_wide(s, pk, any_hit, 8)) return;
   }
   for (int r = 0; r < pk->n; ++r) {

@@ -10,24 +10,30 @@
  * zero edge functions is left out: it needs cl_khr_fp64 in float renders, and the
  * conservative test is already watertight. */
 
-TR_FN vec3 tr_permute(vec3 v, int kx, int ky, int kz) {
+TR_FN_INLINE vec3 tr_permute(vec3 v, int kx, int ky, int kz) {
   return TR_VEC3(tr_component(v, kx), tr_component(v, ky), tr_component(v, kz));
 }
 
-/* The part of the test that depends on the ray alone: which axis becomes z and the
- * shear. Computed once per ray query (scene_hit.h, bvh_traverse.h), not per triangle:
- * it holds three of the test's four divisions. */
-TR_FN_INLINE TrTriangleRay tr_triangle_ray(TrRay ray) {
+/* The part of the test that depends on the ray alone (its direction d): which axis
+ * becomes z and the shear. Computed once per ray query (scene_hit.h, bvh_traverse.h,
+ * for a packet's rays side by side in bvh_packet.h), not per triangle: it holds three
+ * of the test's four divisions. Selects only, no branch, so a loop over rays
+ * vectorizes. */
+TR_FN_INLINE TrTriangleRay tr_triangle_ray_dir(vec3 dir) {
   TrTriangleRay tr;
-  vec3 ad = tr_abs3(ray.d);
+  vec3 ad = tr_abs3(dir);
   tr.kz = ad.x > ad.y ? (ad.x > ad.z ? 0 : 2) : (ad.y > ad.z ? 1 : 2);
   tr.kx = tr.kz == 2 ? 0 : tr.kz + 1;
   tr.ky = tr.kx == 2 ? 0 : tr.kx + 1;
-  vec3 d = tr_permute(ray.d, tr.kx, tr.ky, tr.kz);
+  vec3 d = tr_permute(dir, tr.kx, tr.ky, tr.kz);
   tr.sx = -d.x / d.z;
   tr.sy = -d.y / d.z;
   tr.sz = TR_R(1.0) / d.z;
   return tr;
+}
+
+TR_FN_INLINE TrTriangleRay tr_triangle_ray(TrRay ray) {
+  return tr_triangle_ray_dir(ray.d);
 }
 
 /* Distance along the ray to the triangle, > 0, and the barycentric coordinates of

@@ -45,7 +45,7 @@ TR_FN real tr_max_component(vec3 v) {
 }
 
 /* Component i (0, 1, 2) of v; OpenCL vectors cannot be indexed at run time. */
-TR_FN real tr_component(vec3 v, int i) {
+TR_FN_INLINE real tr_component(vec3 v, int i) {
   return i == 0 ? v.x : (i == 1 ? v.y : v.z);
 }
 

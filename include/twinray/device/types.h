@@ -164,16 +164,17 @@ typedef struct TrNearest {
   int prim;
 } TrNearest;
 
-/* A packet of rays walked together (bvh_packet.h): the rays, their box-test views one
- * array per component (so the per-ray box test runs a ray per SIMD lane), each ray's
- * nearest hit, and, for a coherent packet, the bounds of origins and reciprocal
- * directions over all rays and the slab planes they share. */
+/* A packet of rays walked together (bvh_packet.h): the rays, their box-test and
+ * triangle-test views one array per component (so per-ray work runs a ray per SIMD
+ * lane), each ray's nearest hit, and, for a coherent packet, the bounds of origins
+ * and reciprocal directions over all rays and the slab planes they share. */
 #define TR_PACKET_MAX 64
 #define TR_BLOCK_SIDE 8 /* tr_render_block's blocks, TR_BLOCK_SIDE^2 <= TR_PACKET_MAX rays */
 typedef struct TrRayPacket {
   int n;
   TrRay ray[TR_PACKET_MAX];
-  TrTriangleRay tri_ray[TR_PACKET_MAX];
+  real tri_sx[TR_PACKET_MAX], tri_sy[TR_PACKET_MAX], tri_sz[TR_PACKET_MAX]; /* TrTriangleRay */
+  int tri_kx[TR_PACKET_MAX], tri_ky[TR_PACKET_MAX], tri_kz[TR_PACKET_MAX];
   real ox[TR_PACKET_MAX], oy[TR_PACKET_MAX], oz[TR_PACKET_MAX];
   real ix[TR_PACKET_MAX], iy[TR_PACKET_MAX], iz[TR_PACKET_MAX];
   real fx[TR_PACKET_MAX], fy[TR_PACKET_MAX], fz[TR_PACKET_MAX];
