@@ -29,14 +29,6 @@ TR_FN int tr_shadow_ray(const TrHit* hit, vec3 light_pos, TrRay* shadow, real* t
   return 1;
 }
 
-/* Is the segment from the hit to the light blocked? */
-TR_FN int tr_light_blocked(const TrSceneRef* s, const TrHit* hit, vec3 light_pos) {
-  TrRay shadow;
-  real tmax;
-  if (!tr_shadow_ray(hit, light_pos, &shadow, &tmax)) return 0;
-  return tr_any_hit(s, &shadow, tmax);
-}
-
 /* The normal the hit is shaded with: the shading normal, turned to the side of the
  * geometric normal that faces the incoming ray. */
 TR_FN vec3 tr_facing_normal(const TrSceneRef* s, const TrHit* hit, vec3 ray_dir) {
@@ -63,49 +55,58 @@ TR_FN TrLightView tr_light_view(const TrSceneRef* s, const TrHit* hit, vec3 n, i
   return lv;
 }
 
-/* Whether shading the hit asks if light i is blocked (then *shadow and *tmax say what
- * to trace): shadows on, the light in front of the surface, and a term it would add. */
-TR_FN int tr_shading_needs_shadow_ray(const TrSceneRef* s, const TrHit* hit, vec3 ray_dir, int i,
-                                      TrRay* shadow, real* tmax) {
-  if (!tr_use(s, TR_F_SHADOWS)) return 0;
-  TrLightView lv = tr_light_view(s, hit, tr_facing_normal(s, hit, ray_dir), i);
-  return lv.lit == TR_LIGHT_ALL && tr_shadow_ray(hit, lv.pos, shadow, tmax);
+/* What shading the hit reads before its lights: the albedo (the material color, times
+ * its texture at the hit's uv) and the facing normal. */
+TR_FN TrSurface tr_surface(const TrSceneRef* s, const TrHit* hit, vec3 ray_dir) {
+  TrSurface sf;
+  TR_GLOBAL const TrMaterial* m = &s->materials[hit->material];
+  sf.albedo = TR_VEC3(m->r, m->g, m->b);
+  if (tr_use(s, TR_F_TEXTURES) && m->texture >= 0)
+    sf.albedo = sf.albedo * tr_texture_rgb(s, m->texture, hit->u, hit->v);
+  sf.n = tr_facing_normal(s, hit, ray_dir);
+  return sf;
 }
 
-/* The hit's color. Lights below n_known have their shadow tests answered in bit i of
- * `blocked` (traced beforehand, many rays at once: trace.h); the others are traced
- * here. */
-TR_FN vec3 tr_shade_known(const TrSceneRef* s, const TrHit* hit, vec3 ray_dir, unsigned blocked,
-                          int n_known) {
+/* Whether the light seen as lv asks for a shadow ray (then *shadow and *tmax say what
+ * to trace): shadows on, the light in front of the surface, and a term it would add. */
+TR_FN int tr_light_needs_shadow_ray(const TrSceneRef* s, const TrHit* hit, TrLightView lv,
+                                    TrRay* shadow, real* tmax) {
+  return tr_use(s, TR_F_SHADOWS) && lv.lit == TR_LIGHT_ALL &&
+         tr_shadow_ray(hit, lv.pos, shadow, tmax);
+}
+
+/* sum plus what the light seen as lv adds at the hit (surface sf, incoming direction
+ * ray_dir); blocked: whether its shadow ray is (only read where one was asked for). */
+TR_FN vec3 tr_add_light(const TrSceneRef* s, const TrHit* hit, TrSurface sf, vec3 ray_dir,
+                        TrLightView lv, int blocked, vec3 sum) {
+  if (lv.lit == TR_LIGHT_NONE) return sum;
   TR_GLOBAL const TrMaterial* m = &s->materials[hit->material];
-  vec3 albedo = TR_VEC3(m->r, m->g, m->b);
-  if (tr_use(s, TR_F_TEXTURES) && m->texture >= 0)
-    albedo = albedo * tr_texture_rgb(s, m->texture, hit->u, hit->v);
-  vec3 n = tr_facing_normal(s, hit, ray_dir);
-  vec3 view = -ray_dir;
-  int use_ambient = tr_use(s, TR_F_AMBIENT);
-  int use_diffuse = tr_use(s, TR_F_DIFFUSE);
-  int use_specular = tr_use(s, TR_F_SPECULAR);
-  vec3 sum = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
-  for (int i = 0; i < s->params->n_lights; ++i) {
-    TrLightView lv = tr_light_view(s, hit, n, i);
-    if (lv.lit == TR_LIGHT_NONE) continue;
-    if (use_ambient) sum = sum + albedo * lv.irradiance * m->ka;
-    if (lv.lit == TR_LIGHT_AMBIENT) continue;
-    if (tr_use(s, TR_F_SHADOWS)) {
-      int is_blocked = i < n_known ? (int)((blocked >> i) & 1u) : tr_light_blocked(s, hit, lv.pos);
-      if (is_blocked) continue;
-    }
-    if (use_diffuse) sum = sum + albedo * lv.irradiance * (m->kd * lv.n_dot_l);
-    if (use_specular) {
-      vec3 h = tr_normalize(lv.l + view);
-      real n_dot_h = tr_clamp01(tr_dot(n, h));
-      sum = sum + lv.irradiance * (m->ks * tr_pow_unit(n_dot_h, m->shininess));
-    }
+  if (tr_use(s, TR_F_AMBIENT)) sum = sum + sf.albedo * lv.irradiance * m->ka;
+  if (lv.lit == TR_LIGHT_AMBIENT) return sum;
+  if (tr_use(s, TR_F_SHADOWS) && blocked) return sum;
+  if (tr_use(s, TR_F_DIFFUSE)) sum = sum + sf.albedo * lv.irradiance * (m->kd * lv.n_dot_l);
+  if (tr_use(s, TR_F_SPECULAR)) {
+    vec3 view = -ray_dir;
+    vec3 h = tr_normalize(lv.l + view);
+    real n_dot_h = tr_clamp01(tr_dot(sf.n, h));
+    sum = sum + lv.irradiance * (m->ks * tr_pow_unit(n_dot_h, m->shininess));
   }
   return sum;
 }
 
+/* The hit's color, tracing its shadow rays one by one. tr_render_block (trace.h) adds
+ * the same terms in the same order, light by light over a block's hits, with each
+ * light's shadow rays traced as one packet. */
 TR_FN vec3 tr_shade(const TrSceneRef* s, const TrHit* hit, vec3 ray_dir) {
-  return tr_shade_known(s, hit, ray_dir, 0u, 0);
+  TrSurface sf = tr_surface(s, hit, ray_dir);
+  vec3 sum = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
+  for (int i = 0; i < s->params->n_lights; ++i) {
+    TrLightView lv = tr_light_view(s, hit, sf.n, i);
+    TrRay shadow;
+    real tmax;
+    int blocked =
+        tr_light_needs_shadow_ray(s, hit, lv, &shadow, &tmax) && tr_any_hit(s, &shadow, tmax);
+    sum = tr_add_light(s, hit, sf, ray_dir, lv, blocked, sum);
+  }
+  return sum;
 }

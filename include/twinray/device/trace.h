@@ -14,11 +14,11 @@ TR_FN TrPath tr_path_start(const TrSceneRef* s, TrRay ray) {
   return path;
 }
 
-/* One segment of the path, whose ray's closest hit is (found, hit): adds what it sees
- * and, on a glazed surface, turns the path into the mirrored ray. Shadow tests as in
- * tr_shade_known. */
+/* One segment of the path, whose ray's closest hit is (found, hit) and shades to
+ * `shaded` there: adds what it sees and, on a glazed surface, turns the path into the
+ * mirrored ray. */
 TR_FN void tr_path_step(const TrSceneRef* s, TrPath* path, int found, const TrHit* hit,
-                        unsigned blocked, int n_known) {
+                        vec3 shaded) {
   --path->segments_left;
   if (!found) {
     TR_GLOBAL const TrParams* p = s->params;
@@ -27,7 +27,7 @@ TR_FN void tr_path_step(const TrSceneRef* s, TrPath* path, int found, const TrHi
     return;
   }
   vec3 d = path->ray.d;
-  path->color = path->color + tr_shade_known(s, hit, d, blocked, n_known) * path->weight;
+  path->color = path->color + shaded * path->weight;
   real glaze = TR_HAS(TR_F_GLAZE) ? s->materials[hit->material].glaze : TR_R(0.0);
   if (!(glaze > TR_R(0.0))) {
     path->segments_left = 0;
@@ -45,7 +45,8 @@ TR_FN vec3 tr_trace(const TrSceneRef* s, TrRay ray) {
   while (path.segments_left > 0) {
     TrHit hit = tr_no_hit();
     int found = tr_closest_hit(s, &path.ray, TR_R(INFINITY), &hit);
-    tr_path_step(s, &path, found, &hit, 0u, 0);
+    vec3 shaded = found ? tr_shade(s, &hit, path.ray.d) : TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
+    tr_path_step(s, &path, found, &hit, shaded);
   }
   return path.color;
 }
@@ -63,16 +64,16 @@ TR_FN vec3 tr_render_pixel(const TrSceneRef* s, int px, int py) {
 
 /* tr_render_pixel for a block of w x h pixels from (x0, y0), w h <= TR_PACKET_MAX,
  * into colors[w h] (rows of w): the same values, computed a segment at a time for all
- * the block's paths, so that each segment's rays, and the shadow rays toward each of
- * the first 32 lights, are found in one packet query (scene_hit.h). Each path takes the
- * same steps as in tr_trace; only the order across pixels differs. The CPU backend's
- * path for shaded frames. */
+ * the block's paths, so that each segment's rays, and its shadow rays toward each
+ * light, are found in one packet query (scene_hit.h). Shading goes light by light over
+ * the segment's hits, adding each hit's terms in tr_shade's order, so each path takes
+ * the same steps as in tr_trace; only the order across pixels differs. The CPU
+ * backend's path for shaded frames. */
 TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, int x0, int y0, int w, int h,
                            vec3* colors) {
   TR_GLOBAL const TrParams* p = s->params;
   TrRayPacket* pk = &b->packet;
   int n = w * h;
-  int n_known = tr_use(s, TR_F_SHADOWS) ? (p->n_lights < 32 ? p->n_lights : 32) : 0;
   for (int j = 0; j < n; ++j) colors[j] = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
   for (int i = 0; i < p->spp; ++i) {
     for (int j = 0; j < n; ++j) {
@@ -90,22 +91,32 @@ TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, int x0, int y
       if (m == 0) break;
       pk->n = m;
       tr_closest_hit_packet(s, pk, b->hit, b->found);
-      for (int r = 0; r < m; ++r) b->blocked[r] = 0u;
-      for (int light = 0; light < n_known; ++light) {
+      for (int r = 0; r < m; ++r) {
+        b->shaded[r] = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
+        if (b->found[r]) b->surface[r] = tr_surface(s, &b->hit[r], b->path[b->slot[r]].ray.d);
+      }
+      for (int light = 0; light < p->n_lights; ++light) {
         int k = 0;
         for (int r = 0; r < m; ++r) {
-          if (!b->found[r] || !tr_shading_needs_shadow_ray(s, &b->hit[r], b->path[b->slot[r]].ray.d,
-                                                           light, &pk->ray[k], &pk->t[k]))
-            continue;
-          b->lane[k++] = r;
+          b->blocked[r] = 0;
+          if (!b->found[r]) continue;
+          b->light[r] = tr_light_view(s, &b->hit[r], b->surface[r].n, light);
+          if (tr_light_needs_shadow_ray(s, &b->hit[r], b->light[r], &pk->ray[k], &pk->t[k]))
+            b->lane[k++] = r;
         }
-        if (k == 0) continue;
-        pk->n = k;
-        tr_any_hit_packet(s, pk, b->lane_blocked);
-        for (int q = 0; q < k; ++q) b->blocked[b->lane[q]] |= (unsigned)b->lane_blocked[q] << light;
+        if (k > 0) {
+          pk->n = k;
+          tr_any_hit_packet(s, pk, b->lane_blocked);
+          for (int q = 0; q < k; ++q) b->blocked[b->lane[q]] = b->lane_blocked[q];
+        }
+        for (int r = 0; r < m; ++r) {
+          if (!b->found[r]) continue;
+          b->shaded[r] = tr_add_light(s, &b->hit[r], b->surface[r], b->path[b->slot[r]].ray.d,
+                                      b->light[r], b->blocked[r], b->shaded[r]);
+        }
       }
       for (int r = 0; r < m; ++r)
-        tr_path_step(s, &b->path[b->slot[r]], b->found[r], &b->hit[r], b->blocked[r], n_known);
+        tr_path_step(s, &b->path[b->slot[r]], b->found[r], &b->hit[r], b->shaded[r]);
     }
     for (int j = 0; j < n; ++j) colors[j] = colors[j] + b->path[j].color;
   }

@@ -195,6 +195,12 @@ typedef struct TrLightView {
   int lit;
 } TrLightView;
 
+/* What shading reads of a hit before its lights (shading.h): the albedo and the
+ * shading normal turned to face the incoming ray. */
+typedef struct TrSurface {
+  vec3 albedo, n;
+} TrSurface;
+
 /* A camera ray's path through its mirror chain (trace.h): the ray of its next segment,
  * the color so far, the product of the glaze factors passed, and how many segments it
  * may still take (0: done). */
@@ -205,15 +211,18 @@ typedef struct TrPath {
   int segments_left;
 } TrPath;
 
-/* Working memory of tr_render_block (trace.h): a block's paths, one segment's hits, and
- * each hit's shadow tests (bit i: toward light i). */
+/* Working memory of tr_render_block (trace.h): a block's paths; one segment's hits,
+ * their surfaces and shaded colors so far; one light as each hit sees it, and which
+ * hits' shadow rays toward it went into the packet (lane) and are blocked. */
 typedef struct TrBlockScratch {
   TrRayPacket packet;
   TrPath path[TR_PACKET_MAX];
   TrHit hit[TR_PACKET_MAX];
+  TrSurface surface[TR_PACKET_MAX];
+  vec3 shaded[TR_PACKET_MAX];
+  TrLightView light[TR_PACKET_MAX];
   int found[TR_PACKET_MAX], slot[TR_PACKET_MAX], lane[TR_PACKET_MAX];
-  int lane_blocked[TR_PACKET_MAX];
-  unsigned blocked[TR_PACKET_MAX];
+  int lane_blocked[TR_PACKET_MAX], blocked[TR_PACKET_MAX];
 } TrBlockScratch;
 
 typedef struct TrSample2 {
