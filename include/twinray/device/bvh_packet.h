@@ -18,32 +18,30 @@
  * offers that still holds the winner: the image is the same bits as the single-ray
  * walk's (tests/pack/packet_test.cpp). */
 
-/* The least and the greatest of a[0 .. n), n >= 1: eight running extremes side by side
- * (one vector register) instead of one chain of dependent compares. The values are
+/* The greatest (greatest = 1) or the least (0) of a[0 .. n), n >= 1: eight running
+ * extremes side by side (one vector register) instead of one chain of dependent
+ * compares. Callers pass `greatest` as a constant, so the compare folds. The values are
  * never NaN where the result matters (a NaN ray makes its packet incoherent). */
-TR_FN_INLINE real tr_lanes_min(const real* a, int n) {
+TR_FN_INLINE real tr_lanes_extreme(const real* a, int n, int greatest) {
   real m[8];
   int r = 0;
   for (int j = 0; j < 8; ++j) m[j] = a[0];
   for (; r + 8 <= n; r += 8) {
     TR_SIMD_LOOP
-    for (int j = 0; j < 8; ++j) m[j] = a[r + j] < m[j] ? a[r + j] : m[j];
+    for (int j = 0; j < 8; ++j) {
+      real x = a[r + j];
+      m[j] = (greatest ? x > m[j] : x < m[j]) ? x : m[j];
+    }
   }
-  for (; r < n; ++r) m[0] = a[r] < m[0] ? a[r] : m[0];
-  for (int j = 1; j < 8; ++j) m[0] = m[j] < m[0] ? m[j] : m[0];
+  for (; r < n; ++r) m[0] = (greatest ? a[r] > m[0] : a[r] < m[0]) ? a[r] : m[0];
+  for (int j = 1; j < 8; ++j) m[0] = (greatest ? m[j] > m[0] : m[j] < m[0]) ? m[j] : m[0];
   return m[0];
 }
+TR_FN_INLINE real tr_lanes_min(const real* a, int n) {
+  return tr_lanes_extreme(a, n, 0);
+}
 TR_FN_INLINE real tr_lanes_max(const real* a, int n) {
-  real m[8];
-  int r = 0;
-  for (int j = 0; j < 8; ++j) m[j] = a[0];
-  for (; r + 8 <= n; r += 8) {
-    TR_SIMD_LOOP
-    for (int j = 0; j < 8; ++j) m[j] = a[r + j] > m[j] ? a[r + j] : m[j];
-  }
-  for (; r < n; ++r) m[0] = a[r] > m[0] ? a[r] : m[0];
-  for (int j = 1; j < 8; ++j) m[0] = m[j] > m[0] ? m[j] : m[0];
-  return m[0];
+  return tr_lanes_extreme(a, n, 1);
 }
 
 /* Fills the packet's derived fields from pk->ray[0 .. n) (pk->t and pk->prim are the
@@ -84,13 +82,14 @@ TR_FN int tr_packet_begin(TrRayPacket* pk) {
   }
   TR_SIMD_LOOP
   for (int r = 0; r < n; ++r) {
-    vec3 d = TR_VEC3(pk->ix[r], pk->iy[r], pk->iz[r]);
-    /* tr_box_ray's operations */
-    vec3 inv_d = TR_VEC3(TR_R(1.0) / d.x, TR_R(1.0) / d.y, TR_R(1.0) / d.z);
-    vec3 inv_d_far = inv_d * grow;
-    pk->ix[r] = inv_d.x;
-    pk->iy[r] = inv_d.y;
-    pk->iz[r] = inv_d.z;
+    TrRay ray;
+    ray.o = TR_VEC3(pk->ox[r], pk->oy[r], pk->oz[r]);
+    ray.d = TR_VEC3(pk->ix[r], pk->iy[r], pk->iz[r]);
+    TrBoxRay br = tr_box_ray(ray); /* its rows are the same for every ray: unused here */
+    vec3 d = ray.d, inv_d_far = br.inv_d_far;
+    pk->ix[r] = br.inv_d.x;
+    pk->iy[r] = br.inv_d.y;
+    pk->iz[r] = br.inv_d.z;
     pk->fx[r] = inv_d_far.x;
     pk->fy[r] = inv_d_far.y;
     pk->fz[r] = inv_d_far.z;
