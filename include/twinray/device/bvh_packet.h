@@ -13,10 +13,11 @@
  * the bounds. If no ray's own test (tr_ray_hits_boxes) could enter a box, the
  * packet's does not either; the packet may enter more, never fewer. At a leaf each ray
  * takes its own box test, the very operations of tr_ray_hits_boxes, one ray per SIMD
- * lane, and tests the primitives only if it passes. Each ray thus offers its primitives
- * to its own nearest hit (tr_offer_hit), a superset of those its single-ray walk
- * offers that still holds the winner: the image is the same bits as the single-ray
- * walk's (tests/pack/packet_test.cpp). */
+ * lane, and tests the primitives only if it passes (where enough rays pass, a leaf's
+ * triangles are tested for every ray, a ray per lane, and kept where it passed). Each ray thus
+ * offers its primitives to its own nearest hit (tr_offer_hit), a superset of those its single-ray
+ * walk offers that still holds the winner: the image is the same bits as the single-ray walk's
+ * (tests/pack/packet_test.cpp). */
 
 /* The greatest (greatest = 1) or the least (0) of a[0 .. n), n >= 1: eight running
  * extremes side by side (one vector register) instead of one chain of dependent
@@ -51,8 +52,7 @@ TR_FN_INLINE real tr_lanes_max(const real* a, int n) {
  * across the packet, every reciprocal finite.
  * The rays' components go into one array each first, so that the rest runs a ray per
  * SIMD lane: six divisions per ray, done one at a time, took a third of a packet query
- * on the demo frame (docs/performance.md). The direction is kept in ix..iz until its
- * reciprocal replaces it there. */
+ * on the demo frame (docs/performance.md). */
 TR_FN int tr_packet_begin(TrRayPacket* pk) {
   int n = pk->n;
   if (n <= 0) return 0;
@@ -61,17 +61,17 @@ TR_FN int tr_packet_begin(TrRayPacket* pk) {
     pk->ox[r] = ray.o.x;
     pk->oy[r] = ray.o.y;
     pk->oz[r] = ray.o.z;
-    pk->ix[r] = ray.d.x;
-    pk->iy[r] = ray.d.y;
-    pk->iz[r] = ray.d.z;
+    pk->dx[r] = ray.d.x;
+    pk->dy[r] = ray.d.y;
+    pk->dz[r] = ray.d.z;
   }
-  vec3 d0 = TR_VEC3(pk->ix[0], pk->iy[0], pk->iz[0]);
+  vec3 d0 = TR_VEC3(pk->dx[0], pk->dy[0], pk->dz[0]);
   real grow = tr_box_grow();
   int incoherent = 0;
   if (TR_HAS(TR_F_TRIANGLES)) {
     TR_SIMD_LOOP
     for (int r = 0; r < n; ++r) {
-      TrTriangleRay tr = tr_triangle_ray_dir(TR_VEC3(pk->ix[r], pk->iy[r], pk->iz[r]));
+      TrTriangleRay tr = tr_triangle_ray_dir(TR_VEC3(pk->dx[r], pk->dy[r], pk->dz[r]));
       pk->tri_sx[r] = tr.sx;
       pk->tri_sy[r] = tr.sy;
       pk->tri_sz[r] = tr.sz;
@@ -84,7 +84,7 @@ TR_FN int tr_packet_begin(TrRayPacket* pk) {
   for (int r = 0; r < n; ++r) {
     TrRay ray;
     ray.o = TR_VEC3(pk->ox[r], pk->oy[r], pk->oz[r]);
-    ray.d = TR_VEC3(pk->ix[r], pk->iy[r], pk->iz[r]);
+    ray.d = TR_VEC3(pk->dx[r], pk->dy[r], pk->dz[r]);
     TrBoxRay br = tr_box_ray(ray); /* its rows are the same for every ray: unused here */
     vec3 d = ray.d, inv_d_far = br.inv_d_far;
     pk->ix[r] = br.inv_d.x;
@@ -186,6 +186,38 @@ TR_FN_INLINE int tr_packet_rays_enter_box(TR_GLOBAL const real* boxes, const TrR
   return count;
 }
 
+/* Primitive prim, which ray r hits at t if `hit`, offered to the ray, in a loop that
+ * runs a ray per SIMD lane: tr_offer_hit's order (closest hit), or the blocked mark
+ * (any hit: t in (0, pk->t[r]) sets pk->t[r] to -1), as selects. any_hit is data, not a
+ * branch, so that the loop stays one basic block. */
+TR_FN_INLINE void tr_packet_offer(TrRayPacket* pk, int r, int hit, real t, int prim, int any_hit) {
+  real t_r = pk->t[r];
+  int prim_r = pk->prim[r];
+  int blocked = any_hit & hit & (t > TR_R(0.0)) & (t < t_r);
+  int nearer = (any_hit == 0) & hit & tr_hit_precedes(t, prim, t_r, prim_r);
+  pk->t[r] = blocked ? TR_R(-1.0) : nearer ? t : t_r;
+  pk->prim[r] = nearer ? prim : prim_r;
+}
+
+/* Triangle prim offered to each ray r of the packet with enter[r] set, a ray per SIMD
+ * lane: tr_triangle_hit_at without branches, then tr_packet_offer. Used where enough of
+ * the packet entered the leaf; the rays that did not are computed and dropped. */
+TR_FN_INLINE void tr_packet_triangle_lanes(const TrSceneRef* s, TrRayPacket* pk, int prim,
+                                           const int* enter, int any_hit) {
+  TR_GLOBAL const TrTriangle* tri = &s->triangles[prim - s->params->n_spheres];
+  vec3 p0 = tr_triangle_p0(tri), p1 = tr_triangle_p1(tri), p2 = tr_triangle_p2(tri);
+  int n = pk->n;
+  TR_SIMD_LOOP
+  for (int r = 0; r < n; ++r) {
+    TrTriangleRay tri_ray = tr_packet_triangle_ray(pk, r);
+    vec3 bary;
+    real t;
+    int hit = enter[r] & tr_triangle_hit_at(p0, p1, p2, TR_VEC3(pk->ox[r], pk->oy[r], pk->oz[r]),
+                                            &tri_ray, 0, &t, &bary);
+    tr_packet_offer(pk, r, hit, t, prim, any_hit);
+  }
+}
+
 /* The greatest of the packet's nearest distances, grown as the box test grows them. */
 TR_FN_INLINE real tr_packet_tmax_grown(const TrRayPacket* pk) {
   return tr_lanes_max(pk->t, pk->n) * tr_box_grow();
@@ -236,8 +268,16 @@ TR_FN_INLINE int tr_packet_walk_wide(const TrSceneRef* s, TrRayPacket* pk, int a
       if (leaf_tests >= 16 && leaf_entries < leaf_tests) return 0;
       if (entered == 0) continue;
       leaves_tested = 1;
+      /* A leaf's triangles go a ray per lane once a quarter of the packet entered it
+       * (a half, an eighth and always measured alike: docs/performance.md). */
+      int lanes = entered * 4 >= pk->n;
       for (int i = first[k]; i < first[k] + count[k]; ++i) {
         int prim = s->bvh_prims[i];
+        if (TR_HAS(TR_F_TRIANGLES) && lanes &&
+            !(TR_HAS(TR_F_SPHERES) && prim < s->params->n_spheres)) {
+          tr_packet_triangle_lanes(s, pk, prim, enter, any_hit);
+          continue;
+        }
         for (int q = 0; q < entered; ++q) {
           int r = rays[q];
           if (any_hit) {

@@ -29,8 +29,11 @@ TR_FN_INLINE real tr_primitive_t(const TrSceneRef* s, int prim, TrRay ray,
  * primitives are tested in: neither the BVH's shape and width nor the order children
  * are visited can change a pixel, on any backend. (Ties are real: a ray through an
  * edge two triangles share hits both at the same t.) */
+TR_FN_INLINE int tr_hit_precedes(real t, int prim, real nearest_t, int nearest_prim) {
+  return (t > TR_R(0.0)) & ((t < nearest_t) | ((t == nearest_t) & (prim < nearest_prim)));
+}
 TR_FN_INLINE void tr_offer_hit(TrNearest* nearest, real t, int prim) {
-  if (t > TR_R(0.0) && (t < nearest->t || (t == nearest->t && prim < nearest->prim))) {
+  if (tr_hit_precedes(t, prim, nearest->t, nearest->prim)) {
     nearest->t = t;
     nearest->prim = prim;
   }

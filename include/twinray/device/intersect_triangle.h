@@ -36,24 +36,24 @@ TR_FN_INLINE TrTriangleRay tr_triangle_ray(TrRay ray) {
   return tr_triangle_ray_dir(ray.d);
 }
 
-/* Distance along the ray to the triangle, > 0, and the barycentric coordinates of
- * the hit; a value that is not > 0 where the ray misses. Only t is read on the hot
- * paths (the barycentrics are dead code there): the hit record is made once per ray,
- * for the nearest primitive (tr_triangle_record). t is not range-tested against the
- * ray's tmax before the division, as Woop et al. do: the caller compares the rounded t
- * itself, so whether a triangle wins never depends on what was found before it
- * (scene_hit.h). */
-TR_FN_INLINE real tr_triangle_t_bary(TR_GLOBAL const TrTriangle* tri, TrRay ray,
-                                     const TrTriangleRay* tr, vec3* bary) {
-  vec3 p0 = TR_VEC3(tri->p0x, tri->p0y, tri->p0z);
-  vec3 p1 = TR_VEC3(tri->p1x, tri->p1y, tri->p1z);
-  vec3 p2 = TR_VEC3(tri->p2x, tri->p2y, tri->p2z);
-
+/* Whether the ray from origin o hits the triangle p0 p1 p2; if so, the distance along
+ * it in *t, > 0, and the barycentric coordinates of the hit in *bary.
+ * Only t is read on the hot paths (the barycentrics are dead code there): the hit
+ * record is made once per ray, for the nearest primitive (tr_triangle_record). t is
+ * not range-tested against the ray's tmax before the division, as Woop et al. do: the
+ * caller compares the rounded t itself, so whether a triangle wins never depends on
+ * what was found before it (scene_hit.h).
+ * With `branches` 1 (one ray) the test returns at its first failed check. With 0 (a
+ * constant, in a loop that runs a ray per SIMD lane: bvh_packet.h) it has no control
+ * flow: every check is computed, *t is always set and *bary never. Both give the same
+ * answer and t, from the same operations. */
+TR_FN_INLINE int tr_triangle_hit_at(vec3 p0, vec3 p1, vec3 p2, vec3 o, const TrTriangleRay* tr,
+                                    int branches, real* t_hit, vec3* bary) {
   /* Translate to the ray origin, permute so the dominant direction axis is z. */
   int kx = tr->kx, ky = tr->ky, kz = tr->kz;
-  vec3 a = tr_permute(p0 - ray.o, kx, ky, kz);
-  vec3 b = tr_permute(p1 - ray.o, kx, ky, kz);
-  vec3 c = tr_permute(p2 - ray.o, kx, ky, kz);
+  vec3 a = tr_permute(p0 - o, kx, ky, kz);
+  vec3 b = tr_permute(p1 - o, kx, ky, kz);
+  vec3 c = tr_permute(p2 - o, kx, ky, kz);
 
   /* Shear x and y so the ray direction becomes +z. */
   real sx = tr->sx, sy = tr->sy, sz = tr->sz;
@@ -65,20 +65,21 @@ TR_FN_INLINE real tr_triangle_t_bary(TR_GLOBAL const TrTriangle* tri, TrRay ray,
   real e0 = bx * cy - by * cx;
   real e1 = cx * ay - cy * ax;
   real e2 = ax * by - ay * bx;
-  if ((e0 < TR_R(0.0) || e1 < TR_R(0.0) || e2 < TR_R(0.0)) &&
-      (e0 > TR_R(0.0) || e1 > TR_R(0.0) || e2 > TR_R(0.0)))
-    return TR_R(0.0);
+  int miss = ((e0 < TR_R(0.0)) | (e1 < TR_R(0.0)) | (e2 < TR_R(0.0))) &
+             ((e0 > TR_R(0.0)) | (e1 > TR_R(0.0)) | (e2 > TR_R(0.0)));
+  if (branches && miss) return 0;
   real det = e0 + e1 + e2;
-  if (det == TR_R(0.0)) return TR_R(0.0);
+  miss |= det == TR_R(0.0);
+  if (branches && miss) return 0;
 
   /* Scaled hit distance; its sign must be the sign of det. */
   real az = sz * a.z, bz = sz * b.z, cz = sz * c.z;
   real t_scaled = e0 * az + e1 * bz + e2 * cz;
-  if (det < TR_R(0.0) && t_scaled >= TR_R(0.0)) return TR_R(0.0);
-  if (det > TR_R(0.0) && t_scaled <= TR_R(0.0)) return TR_R(0.0);
+  miss |=
+      ((det < TR_R(0.0)) & (t_scaled >= TR_R(0.0))) | ((det > TR_R(0.0)) & (t_scaled <= TR_R(0.0)));
+  if (branches && miss) return 0;
 
   real inv_det = TR_R(1.0) / det;
-  real b0 = e0 * inv_det, b1 = e1 * inv_det, b2 = e2 * inv_det;
   real t = t_scaled * inv_det;
 
   /* t is the barycentric average of the vertices' ray-space depths az, bz, cz (the
@@ -90,7 +91,8 @@ TR_FN_INLINE real tr_triangle_t_bary(TR_GLOBAL const TrTriangle* tri, TrRay ray,
    * triangle t is conservatively greater than zero"). That bound is loose for a needle:
    * det is tiny next to |e| max|x||y|, delta_t exceeded t and rays through the
    * needle's shared edges leaked (tests/robustness, aspect 1e7 in float). */
-  if (!(tr_min(az, tr_min(bz, cz)) > TR_R(0.0))) {
+  int straddles = !(tr_min(az, tr_min(bz, cz)) > TR_R(0.0));
+  if (!branches || straddles) {
     real max_zt = tr_max_component(tr_abs3(TR_VEC3(az, bz, cz)));
     real max_xt = tr_max_component(tr_abs3(TR_VEC3(ax, bx, cx)));
     real max_yt = tr_max_component(tr_abs3(TR_VEC3(ay, by, cy)));
@@ -102,14 +104,37 @@ TR_FN_INLINE real tr_triangle_t_bary(TR_GLOBAL const TrTriangle* tri, TrRay ray,
     real max_e = tr_max_component(tr_abs3(TR_VEC3(e0, e1, e2)));
     real delta_t = TR_R(3.0) * (tr_gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) *
                    fabs(inv_det);
-    if (!(t > delta_t)) return TR_R(0.0);
+    miss |= straddles & !(t > delta_t);
   }
 
-  /* Zero-area triangles have no normal: never hit them. */
+  /* Zero-area triangles have no normal: never hit them. (It does not depend on the
+   * ray: a loop over rays computes it once.) */
   vec3 normal = tr_cross(p1 - p0, p2 - p0);
-  if (!(tr_dot(normal, normal) > TR_R(0.0))) return TR_R(0.0);
-  *bary = TR_VEC3(b0, b1, b2);
-  return t;
+  miss |= !(tr_dot(normal, normal) > TR_R(0.0));
+  if (branches && miss) return 0;
+  if (branches) *bary = TR_VEC3(e0 * inv_det, e1 * inv_det, e2 * inv_det);
+  *t_hit = t;
+  return !miss;
+}
+
+TR_FN_INLINE vec3 tr_triangle_p0(TR_GLOBAL const TrTriangle* tri) {
+  return TR_VEC3(tri->p0x, tri->p0y, tri->p0z);
+}
+TR_FN_INLINE vec3 tr_triangle_p1(TR_GLOBAL const TrTriangle* tri) {
+  return TR_VEC3(tri->p1x, tri->p1y, tri->p1z);
+}
+TR_FN_INLINE vec3 tr_triangle_p2(TR_GLOBAL const TrTriangle* tri) {
+  return TR_VEC3(tri->p2x, tri->p2y, tri->p2z);
+}
+
+/* The distance along the ray to the triangle, > 0, and the hit's barycentrics in *bary;
+ * a value that is not > 0 where the ray misses. */
+TR_FN_INLINE real tr_triangle_t_bary(TR_GLOBAL const TrTriangle* tri, TrRay ray,
+                                     const TrTriangleRay* tr, vec3* bary) {
+  real t = TR_R(0.0);
+  int hit = tr_triangle_hit_at(tr_triangle_p0(tri), tr_triangle_p1(tri), tr_triangle_p2(tri), ray.o,
+                               tr, 1, &t, bary);
+  return hit ? t : TR_R(0.0);
 }
 
 TR_FN_INLINE real tr_triangle_t(TR_GLOBAL const TrTriangle* tri, TrRay ray,
@@ -127,9 +152,7 @@ TR_FN void tr_triangle_record(TR_GLOBAL const TrTriangle* tri, TrRay ray, const 
   *bary = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0)); /* set on a hit only */
   tr_triangle_t_bary(tri, ray, tr, bary);
   vec3 b = *bary;
-  vec3 p0 = TR_VEC3(tri->p0x, tri->p0y, tri->p0z);
-  vec3 p1 = TR_VEC3(tri->p1x, tri->p1y, tri->p1z);
-  vec3 p2 = TR_VEC3(tri->p2x, tri->p2y, tri->p2z);
+  vec3 p0 = tr_triangle_p0(tri), p1 = tr_triangle_p1(tri), p2 = tr_triangle_p2(tri);
   vec3 normal = tr_cross(p1 - p0, p2 - p0);
   hit->t = t;
   hit->p = p0 * b.x + p1 * b.y + p2 * b.z;
@@ -176,9 +199,7 @@ TR_FN void tr_triangle_attributes(TR_GLOBAL const TrTriangleAttr* a,
     n1 = -n1;
     n2 = -n2;
   }
-  vec3 p0 = TR_VEC3(tri->p0x, tri->p0y, tri->p0z);
-  vec3 p1 = TR_VEC3(tri->p1x, tri->p1y, tri->p1z);
-  vec3 p2 = TR_VEC3(tri->p2x, tri->p2y, tri->p2z);
+  vec3 p0 = tr_triangle_p0(tri), p1 = tr_triangle_p1(tri), p2 = tr_triangle_p2(tri);
   real d0 = tr_dot(hit->p - p0, n0), d1 = tr_dot(hit->p - p1, n1), d2 = tr_dot(hit->p - p2, n2);
   if (!(d0 < TR_R(0.0) || d1 < TR_R(0.0) || d2 < TR_R(0.0))) return;
   vec3 lift = n0 * (-tr_min(d0, TR_R(0.0)) * b.x) + n1 * (-tr_min(d1, TR_R(0.0)) * b.y) +

@@ -113,6 +113,26 @@ TR_FN_OUTLINE int tr_any_hit(const TrSceneRef* s, const TrRay* ray_in, real tmax
   return tr_any_plane_hit(s, ray, tmax);
 }
 
+/* The planes (outside the BVH) offered to the packet's rays after its BVH walk
+ * (tr_packet_begin has run), a ray per SIMD lane: closest hit or any hit as in
+ * tr_packet_offer. */
+TR_FN_INLINE void tr_packet_planes(const TrSceneRef* s, TrRayPacket* pk, int any_hit) {
+  if (!TR_HAS(TR_F_PLANES)) return;
+  int n_bounded = s->params->n_spheres + s->params->n_triangles;
+  for (int i = 0; i < s->params->n_planes; ++i) {
+    vec3 normal = tr_plane_normal(&s->planes[i]), point = tr_plane_point(&s->planes[i]);
+    TR_SIMD_LOOP
+    for (int r = 0; r < pk->n; ++r) {
+      TrRay ray;
+      ray.o = TR_VEC3(pk->ox[r], pk->oy[r], pk->oz[r]);
+      ray.d = TR_VEC3(pk->dx[r], pk->dy[r], pk->dz[r]);
+      real t;
+      int hit = tr_plane_hit_at(normal, point, ray, &t);
+      tr_packet_offer(pk, r, hit, t, n_bounded + i, any_hit);
+    }
+  }
+}
+
 /* tr_closest_hit for the packet's rays pk->ray[0 .. n), each in (0, inf): found[r] and
  * hit[r]. With a BVH, the packet is walked as one where its rays are coherent
  * (bvh_packet.h); the answers are those of tr_closest_hit, ray by ray. */
@@ -129,13 +149,15 @@ TR_FN void tr_closest_hit_packet(const TrSceneRef* s, TrRayPacket* pk, TrHit* hi
     pk->prim[r] = -1;
   }
   tr_packet_bvh(s, pk, tr_packet_begin(pk), 0);
+  tr_packet_planes(s, pk, 0);
   for (int r = 0; r < pk->n; ++r) {
     TrNearest nearest;
     nearest.t = pk->t[r];
     nearest.prim = pk->prim[r];
     TR_COUNT_RAY();
     hit[r] = tr_no_hit();
-    found[r] = tr_closest_hit_finish(s, pk->ray[r], nearest, &hit[r]);
+    found[r] = nearest.prim >= 0;
+    if (found[r]) tr_record_hit(s, pk->ray[r], nearest, &hit[r]);
   }
 }
 
@@ -145,14 +167,11 @@ TR_FN void tr_any_hit_packet(const TrSceneRef* s, TrRayPacket* pk, int* blocked)
     for (int r = 0; r < pk->n; ++r) blocked[r] = tr_any_hit(s, &pk->ray[r], pk->t[r]);
     return;
   }
-  real tmax[TR_PACKET_MAX];
-  for (int r = 0; r < pk->n; ++r) {
-    tmax[r] = pk->t[r];
-    pk->prim[r] = -1;
-  }
+  for (int r = 0; r < pk->n; ++r) pk->prim[r] = -1;
   tr_packet_bvh(s, pk, tr_packet_begin(pk), 1);
+  tr_packet_planes(s, pk, 1);
   for (int r = 0; r < pk->n; ++r) {
     TR_COUNT_RAY();
-    blocked[r] = pk->t[r] < TR_R(0.0) || tr_any_plane_hit(s, pk->ray[r], tmax[r]);
+    blocked[r] = pk->t[r] < TR_R(0.0);
   }
 }

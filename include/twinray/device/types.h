@@ -176,6 +176,7 @@ typedef struct TrRayPacket {
   real tri_sx[TR_PACKET_MAX], tri_sy[TR_PACKET_MAX], tri_sz[TR_PACKET_MAX]; /* TrTriangleRay */
   int tri_kx[TR_PACKET_MAX], tri_ky[TR_PACKET_MAX], tri_kz[TR_PACKET_MAX];
   real ox[TR_PACKET_MAX], oy[TR_PACKET_MAX], oz[TR_PACKET_MAX];
+  real dx[TR_PACKET_MAX], dy[TR_PACKET_MAX], dz[TR_PACKET_MAX];
   real ix[TR_PACKET_MAX], iy[TR_PACKET_MAX], iz[TR_PACKET_MAX];
   real fx[TR_PACKET_MAX], fy[TR_PACKET_MAX], fz[TR_PACKET_MAX];
   real t[TR_PACKET_MAX];
