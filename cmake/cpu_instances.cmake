@@ -6,6 +6,18 @@
 # links it (-march=native, sanitizers come from the build's flags), so each set of flags
 # gets a library of its own. A project that adds twinray with add_subdirectory() can
 # call it too.
+#
+# Its translation units also get TWINRAY_CPU_CODEGEN_FLAGS: -fno-math-errno and
+# -fno-trapping-math change no value (sqrt still rounds correctly; nothing reads errno
+# or the floating-point exception flags) but let g++ compute both sides of a select in
+# SIMD lanes, which the packet's ray-per-lane sphere test needs to vectorize
+# (docs/performance.md). They stay off the twinray target, so a consumer's own code
+# keeps its errno.
+if(CMAKE_CXX_COMPILER_ID MATCHES "GNU|Clang")
+  set(TWINRAY_CPU_CODEGEN_FLAGS -fno-math-errno -fno-trapping-math)
+else()
+  set(TWINRAY_CPU_CODEGEN_FLAGS)
+endif()
 function(twinray_cpu_instances name)
   set(sources)
   foreach(TWINRAY_INSTANCE_REAL float double)
@@ -16,5 +28,5 @@ function(twinray_cpu_instances name)
   add_library(${name} STATIC ${sources})
   target_link_libraries(${name} PUBLIC twinray::twinray)
   target_compile_definitions(${name} PUBLIC TWINRAY_CPU_BACKEND_EXTERN=1)
-  target_compile_options(${name} PRIVATE ${ARGN})
+  target_compile_options(${name} PRIVATE ${ARGN} ${TWINRAY_CPU_CODEGEN_FLAGS})
 endfunction()

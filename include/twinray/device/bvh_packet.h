@@ -218,6 +218,25 @@ TR_FN_INLINE void tr_packet_triangle_lanes(const TrSceneRef* s, TrRayPacket* pk,
   }
 }
 
+/* Sphere prim offered to each ray r of the packet with enter[r] set, a ray per SIMD
+ * lane, as tr_packet_triangle_lanes does for triangles. */
+TR_FN_INLINE void tr_packet_sphere_lanes(const TrSceneRef* s, TrRayPacket* pk, int prim,
+                                         const int* enter, int any_hit) {
+  TR_GLOBAL const TrSphere* sp = &s->spheres[prim];
+  vec3 center = tr_sphere_center(sp);
+  real radius = sp->radius;
+  int n = pk->n;
+  TR_SIMD_LOOP
+  for (int r = 0; r < n; ++r) {
+    TrRay ray;
+    ray.o = TR_VEC3(pk->ox[r], pk->oy[r], pk->oz[r]);
+    ray.d = TR_VEC3(pk->dx[r], pk->dy[r], pk->dz[r]);
+    real t;
+    int hit = enter[r] & tr_sphere_hit_at(center, radius, ray, 0, &t);
+    tr_packet_offer(pk, r, hit, t, prim, any_hit);
+  }
+}
+
 /* The greatest of the packet's nearest distances, grown as the box test grows them. */
 TR_FN_INLINE real tr_packet_tmax_grown(const TrRayPacket* pk) {
   return tr_lanes_max(pk->t, pk->n) * tr_box_grow();
@@ -268,14 +287,17 @@ TR_FN_INLINE int tr_packet_walk_wide(const TrSceneRef* s, TrRayPacket* pk, int a
       if (leaf_tests >= 16 && leaf_entries < leaf_tests) return 0;
       if (entered == 0) continue;
       leaves_tested = 1;
-      /* A leaf's triangles go a ray per lane once a quarter of the packet entered it
-       * (a half, an eighth and always measured alike: docs/performance.md). */
-      int lanes = entered * 4 >= pk->n;
+      /* A leaf's primitives go a ray per lane once a quarter of the packet entered it
+       * (a half, an eighth and always measured alike: docs/performance.md), on the
+       * host only (TR_PACKET_LANES). */
+      int lanes = TR_PACKET_LANES && entered * 4 >= pk->n;
       for (int i = first[k]; i < first[k] + count[k]; ++i) {
         int prim = s->bvh_prims[i];
-        if (TR_HAS(TR_F_TRIANGLES) && lanes &&
-            !(TR_HAS(TR_F_SPHERES) && prim < s->params->n_spheres)) {
-          tr_packet_triangle_lanes(s, pk, prim, enter, any_hit);
+        if (lanes) {
+          if (TR_HAS(TR_F_SPHERES) && prim < s->params->n_spheres)
+            tr_packet_sphere_lanes(s, pk, prim, enter, any_hit);
+          else if (TR_HAS(TR_F_TRIANGLES))
+            tr_packet_triangle_lanes(s, pk, prim, enter, any_hit);
           continue;
         }
         for (int q = 0; q < entered; ++q) {

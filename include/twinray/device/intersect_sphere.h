@@ -21,7 +21,7 @@
  * o - center = h + l exactly (TwoSum), h_i^2 and r^2 as exact two-term products, and
  * |o - center|^2 = sum h_i^2 + 2 sum h_i l_i + sum l_i^2, the last term below u^2 |f|^2
  * and dropped; the terms are added by Sum2 (Ogita, Rump, Oishi 2005). */
-TR_FN real tr_sphere_c_accurate(vec3 o, vec3 center, real r) {
+TR_FN_INLINE real tr_sphere_c_accurate(vec3 o, vec3 center, real r) {
   real lx, ly, lz, ex, ey, ez, er, e, sum_err;
   real hx = tr_two_sum(o.x, -center.x, &lx);
   real hy = tr_two_sum(o.y, -center.y, &ly);
@@ -43,20 +43,25 @@ TR_FN real tr_sphere_c_accurate(vec3 o, vec3 center, real r) {
 /* c = f.f - r^2, rounded, off by up to gamma(4) (f.f + r^2); where it is below half of
  * that sum the rounded value would carry more than 8 ulp of error, and it is recomputed
  * (a relative test: the same at any scale). */
-TR_FN real tr_sphere_c(vec3 f, vec3 o, vec3 center, real r) {
+TR_FN_INLINE real tr_sphere_c(vec3 f, vec3 o, vec3 center, real r, int branches) {
   real ff = tr_dot(f, f);
   real r2 = r * r;
   real c = ff - r2;
-  if (fabs(c) < TR_R(0.5) * (ff + r2)) c = tr_sphere_c_accurate(o, center, r);
-  return c;
+  int cancels = fabs(c) < TR_R(0.5) * (ff + r2);
+  if (branches && !cancels) return c;
+  real accurate = tr_sphere_c_accurate(o, center, r);
+  return cancels ? accurate : c;
 }
 
-/* Distance along the ray to where it first enters or leaves the sphere, > 0; a value
- * that is not > 0 (0, or NaN) where the ray misses. Only t: the hit record is made
- * once per ray, for the nearest primitive (tr_sphere_record). */
-TR_FN_INLINE real tr_sphere_t(TR_GLOBAL const TrSphere* sp, TrRay ray) {
-  vec3 center = TR_VEC3(sp->cx, sp->cy, sp->cz);
-  real r = sp->radius;
+/* Whether the ray meets the sphere (center, r) where it first enters or leaves it,
+ * and the distance along the ray there in *t (> 0 for a hit in front of the origin; a
+ * value that is not > 0 otherwise). Only t: the hit record is made once per ray, for
+ * the nearest primitive (tr_sphere_record). With `branches` 1 (one ray) the test skips
+ * what it does not need and returns at the first miss; with 0 (a constant, in a loop
+ * that runs a ray per SIMD lane: bvh_packet.h) it has no control flow: both forms of
+ * the discriminant and of c are computed and selected. Both give the same answer and
+ * t from the same operations. */
+TR_FN_INLINE int tr_sphere_hit_at(vec3 center, real r, TrRay ray, int branches, real* t_hit) {
   vec3 f = ray.o - center;
   real a = tr_dot(ray.d, ray.d);
   real b = -tr_dot(f, ray.d); /* b' in the chapter */
@@ -64,26 +69,38 @@ TR_FN_INLINE real tr_sphere_t(TR_GLOBAL const TrSphere* sp, TrRay ray) {
   vec3 perp = f + ray.d * (b / a);
   real root_arg = a * (r2 - tr_dot(perp, perp)); /* a D, Hearn and Baker's form */
   real c = TR_R(0.0);
-  int have_c = 0;
   /* 2 b^2 + a|c| < a r^2 needs 2 b^2 < a r^2 first: the common miss (a sphere off to
    * the side, |b| ~ |f| > r) pays one compare for it. */
-  if (TR_R(2.0) * (b * b) < a * r2) {
-    c = tr_sphere_c(f, ray.o, center, r);
-    have_c = 1;
-    if (TR_R(2.0) * (b * b) + a * fabs(c) < a * r2) root_arg = b * b - a * c;
+  int near = TR_R(2.0) * (b * b) < a * r2;
+  if (!branches || near) {
+    c = tr_sphere_c(f, ray.o, center, r, branches);
+    int accurate = near & (TR_R(2.0) * (b * b) + a * fabs(c) < a * r2);
+    root_arg = accurate ? b * b - a * c : root_arg;
   }
-  if (root_arg < TR_R(0.0)) return TR_R(0.0);
-  if (!have_c) c = tr_sphere_c(f, ray.o, center, r);
-  real q = b + (b >= TR_R(0.0) ? sqrt(root_arg) : -sqrt(root_arg));
-  if (q == TR_R(0.0)) return TR_R(0.0); /* origin on the sphere and tangent: no finite root */
+  int miss = root_arg < TR_R(0.0);
+  if (branches && miss) return 0;
+  if (branches && !near) c = tr_sphere_c(f, ray.o, center, r, branches);
+  real root = sqrt(root_arg); /* NaN where root_arg < 0: a miss, selected away */
+  real q = b + (b >= TR_R(0.0) ? root : -root);
+  miss |= q == TR_R(0.0); /* origin on the sphere and tangent: no finite root */
+  if (branches && miss) return 0;
   real t0 = c / q;
   real t1 = q / a;
-  if (t0 > t1) {
-    real tmp = t0;
-    t0 = t1;
-    t1 = tmp;
-  }
-  return t0 > TR_R(0.0) ? t0 : t1;
+  real t_near = t0 > t1 ? t1 : t0, t_far = t0 > t1 ? t0 : t1;
+  *t_hit = t_near > TR_R(0.0) ? t_near : t_far;
+  return !miss;
+}
+
+TR_FN_INLINE vec3 tr_sphere_center(TR_GLOBAL const TrSphere* sp) {
+  return TR_VEC3(sp->cx, sp->cy, sp->cz);
+}
+
+/* Distance along the ray to where it first enters or leaves the sphere, > 0; a value
+ * that is not > 0 (0, or NaN) where the ray misses. */
+TR_FN_INLINE real tr_sphere_t(TR_GLOBAL const TrSphere* sp, TrRay ray) {
+  real t = TR_R(0.0);
+  int hit = tr_sphere_hit_at(tr_sphere_center(sp), sp->radius, ray, 1, &t);
+  return hit ? t : TR_R(0.0);
 }
 
 /* The hit record at distance t along the ray (t from tr_sphere_t). */

@@ -20,6 +20,11 @@
  *                       unrolling a short constant-trip loop into scalar code before its
  *                       vectorizer sees it (the 4-wide box loop stayed scalar); nothing
  *                       elsewhere
+ *   TR_PACKET_LANES     1 where a packet tests a leaf's primitives for all its rays in
+ *                       one loop, a ray per SIMD lane (bvh_packet.h): the host, where g++
+ *                       vectorizes that loop. 0 on OpenCL: a work-item runs the loop one
+ *                       ray at a time, and the rays the leaf's box test dropped cost as
+ *                       much as the rest (PoCL frames 1.1-1.8x slower)
  *   TR_LOWEST_BIT(m)    index of the lowest set bit of a nonzero unsigned int (an
  *                       integer builtin on both sides: exact, so parity is not at stake)
  *
@@ -69,6 +74,7 @@ typedef float3 vec3;
   } while (0)
 #define TR_LOWEST_BIT(m) (31 - (int)clz((m) & (0u - (m))))
 #define TR_SIMD_LOOP
+#define TR_PACKET_LANES 0
 #ifndef TR_FEATURES
 #error "TR_FEATURES (the Features mask) must be passed as a build option"
 #endif
@@ -93,6 +99,7 @@ typedef float3 vec3;
 #else
 #define TR_SIMD_LOOP
 #endif
+#define TR_PACKET_LANES 1
 #if defined(__GNUC__) || defined(__clang__)
 #define TR_LOWEST_BIT(m) __builtin_ctz(m)
 #else
