@@ -13,8 +13,9 @@
  * the bounds. If no ray's own test (tr_ray_hits_boxes) could enter a box, the
  * packet's does not either; the packet may enter more, never fewer. At a leaf each ray
  * takes its own box test, the very operations of tr_ray_hits_boxes, one ray per SIMD
- * lane, and tests the primitives only if it passes (where enough rays pass, a leaf's
- * triangles are tested for every ray, a ray per lane, and kept where it passed). Each ray thus
+ * lane, and tests the primitives only if it passes (on the host, where enough rays
+ * pass, a leaf's primitives are tested for every ray, a ray per lane, and kept where
+ * it passed). Each ray thus
  * offers its primitives to its own nearest hit (tr_offer_hit), a superset of those its single-ray
  * walk offers that still holds the winner: the image is the same bits as the single-ray walk's
  * (tests/pack/packet_test.cpp). */
@@ -43,6 +44,14 @@ TR_FN_INLINE real tr_lanes_min(const real* a, int n) {
 }
 TR_FN_INLINE real tr_lanes_max(const real* a, int n) {
   return tr_lanes_extreme(a, n, 1);
+}
+
+/* Ray r, read back from the packet's arrays (tr_packet_begin). */
+TR_FN_INLINE TrRay tr_packet_ray(const TrRayPacket* pk, int r) {
+  TrRay ray;
+  ray.o = TR_VEC3(pk->ox[r], pk->oy[r], pk->oz[r]);
+  ray.d = TR_VEC3(pk->dx[r], pk->dy[r], pk->dz[r]);
+  return ray;
 }
 
 /* Fills the packet's derived fields from pk->ray[0 .. n) (pk->t and pk->prim are the
@@ -82,9 +91,7 @@ TR_FN int tr_packet_begin(TrRayPacket* pk) {
   }
   TR_SIMD_LOOP
   for (int r = 0; r < n; ++r) {
-    TrRay ray;
-    ray.o = TR_VEC3(pk->ox[r], pk->oy[r], pk->oz[r]);
-    ray.d = TR_VEC3(pk->dx[r], pk->dy[r], pk->dz[r]);
+    TrRay ray = tr_packet_ray(pk, r);
     TrBoxRay br = tr_box_ray(ray); /* its rows are the same for every ray: unused here */
     vec3 d = ray.d, inv_d_far = br.inv_d_far;
     pk->ix[r] = br.inv_d.x;
@@ -228,11 +235,8 @@ TR_FN_INLINE void tr_packet_sphere_lanes(const TrSceneRef* s, TrRayPacket* pk, i
   int n = pk->n;
   TR_SIMD_LOOP
   for (int r = 0; r < n; ++r) {
-    TrRay ray;
-    ray.o = TR_VEC3(pk->ox[r], pk->oy[r], pk->oz[r]);
-    ray.d = TR_VEC3(pk->dx[r], pk->dy[r], pk->dz[r]);
     real t;
-    int hit = enter[r] & tr_sphere_hit_at(center, radius, ray, 0, &t);
+    int hit = enter[r] & tr_sphere_hit_at(center, radius, tr_packet_ray(pk, r), 0, &t);
     tr_packet_offer(pk, r, hit, t, prim, any_hit);
   }
 }

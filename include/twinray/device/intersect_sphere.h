@@ -105,7 +105,7 @@ TR_FN_INLINE real tr_sphere_t(TR_GLOBAL const TrSphere* sp, TrRay ray) {
 
 /* The hit record at distance t along the ray (t from tr_sphere_t). */
 TR_FN void tr_sphere_record(TR_GLOBAL const TrSphere* sp, TrRay ray, real t, TrHit* hit) {
-  vec3 center = TR_VEC3(sp->cx, sp->cy, sp->cz);
+  vec3 center = tr_sphere_center(sp);
   real r = sp->radius;
   vec3 rel = (ray.o - center) + ray.d * t;
   rel = rel * (r / tr_length(rel)); /* refine onto the surface */

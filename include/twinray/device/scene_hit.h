@@ -123,11 +123,8 @@ TR_FN_INLINE void tr_packet_planes(const TrSceneRef* s, TrRayPacket* pk, int any
     vec3 normal = tr_plane_normal(&s->planes[i]), point = tr_plane_point(&s->planes[i]);
     TR_SIMD_LOOP
     for (int r = 0; r < pk->n; ++r) {
-      TrRay ray;
-      ray.o = TR_VEC3(pk->ox[r], pk->oy[r], pk->oz[r]);
-      ray.d = TR_VEC3(pk->dx[r], pk->dy[r], pk->dz[r]);
       real t;
-      int hit = tr_plane_hit_at(normal, point, ray, &t);
+      int hit = tr_plane_hit_at(normal, point, tr_packet_ray(pk, r), &t);
       tr_packet_offer(pk, r, hit, t, n_bounded + i, any_hit);
     }
   }
