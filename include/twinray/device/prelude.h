@@ -23,8 +23,9 @@
  *   TR_PACKET_LANES     1 where a packet tests a leaf's primitives for all its rays in
  *                       one loop, a ray per SIMD lane (bvh_packet.h): the host, where g++
  *                       vectorizes that loop. 0 on OpenCL: a work-item runs the loop one
- *                       ray at a time, and the rays the leaf's box test dropped cost as
- *                       much as the rest (PoCL frames 1.1-1.8x slower)
+ *                       ray at a time (LLVM's loop vectorizer does not widen the tests'
+ *                       float3 values), and the rays the leaf's box test dropped cost
+ *                       as much as the rest (PoCL frames 1.1-1.8x slower)
  *   TR_LOWEST_BIT(m)    index of the lowest set bit of a nonzero unsigned int (an
  *                       integer builtin on both sides: exact, so parity is not at stake)
  *
