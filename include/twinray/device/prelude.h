@@ -58,9 +58,10 @@ typedef float3 vec3;
 /* TR_FN_INLINE: always inlined, on both sides: the walk and the primitive tests, whose
  * callers pass constants (BVH width, any hit or closest) that fold away. Left to PoCL,
  * the walk stayed a call with both as run-time values: 6-16% of a frame.
- * TR_FN_OUTLINE: kept out of line on OpenCL: the two ray queries, each with its walk
- * inlined, so the kernel's work-group function stays small; inlined into it, a cold
- * first frame took 2.7 s instead of 1.8-2.0 (docs/performance.md). */
+ * TR_FN_OUTLINE: kept out of line on OpenCL: the ray queries, for one ray and for a
+ * packet, each with its walk inlined, so the kernel's work-group function stays small.
+ * With the one-ray queries inlined into it, a cold first frame took 2.7 s instead of
+ * 1.8-2.0; with the packet queries, 12-13% longer (docs/performance.md). */
 #define TR_FN static inline
 #ifdef TR_NO_ALWAYS_INLINE /* Oclgrind's runs: see tests/sanitizers/run_oclgrind.cmake */
 #define TR_FN_INLINE static inline

@@ -133,7 +133,8 @@ TR_FN_INLINE void tr_packet_planes(const TrSceneRef* s, TrRayPacket* pk, int any
 /* tr_closest_hit for the packet's rays pk->ray[0 .. n), each in (0, inf): found[r] and
  * hit[r]. With a BVH, the packet is walked as one where its rays are coherent
  * (bvh_packet.h); the answers are those of tr_closest_hit, ray by ray. */
-TR_FN void tr_closest_hit_packet(const TrSceneRef* s, TrRayPacket* pk, TrHit* hit, int* found) {
+TR_FN_OUTLINE void tr_closest_hit_packet(const TrSceneRef* s, TrRayPacket* pk, TrHit* hit,
+                                         int* found) {
   if (!tr_use(s, TR_F_BVH)) {
     for (int r = 0; r < pk->n; ++r) {
       hit[r] = tr_no_hit();
@@ -159,7 +160,7 @@ TR_FN void tr_closest_hit_packet(const TrSceneRef* s, TrRayPacket* pk, TrHit* hi
 }
 
 /* tr_any_hit for the packet's rays, ray r's tmax in pk->t[r]: blocked[r]. */
-TR_FN void tr_any_hit_packet(const TrSceneRef* s, TrRayPacket* pk, int* blocked) {
+TR_FN_OUTLINE void tr_any_hit_packet(const TrSceneRef* s, TrRayPacket* pk, int* blocked) {
   if (!tr_use(s, TR_F_BVH)) {
     for (int r = 0; r < pk->n; ++r) blocked[r] = tr_any_hit(s, &pk->ray[r], pk->t[r]);
     return;
