@@ -9,6 +9,8 @@
 //    widths 2, 4 and 8, float and double, perspective and orthographic, several jittered
 //    samples, a pixel rectangle whose blocks are cut at its edges, and more lights than
 //    the 32 whose shadow rays are traced in packets.
+//  - Shadow queries: tr_any_hit_packet's answers equal tr_any_hit's, in a scene whose
+//    shadow packets walk as one and in one past TR_SHADOW_PACKET_MAX_PRIMS.
 #include <doctest/doctest.h>
 
 #include <cmath>
@@ -128,6 +130,49 @@ void check_queries(int width) {
   CHECK(outcomes[kRayByRay] > 0);
 }
 
+// Shadow queries, tr_any_hit_packet, give each ray what its own any-hit query gives: in a
+// scene of n_spheres small spheres, packets of rays from a small patch toward a light
+// (a block's shadow rays). Below TR_SHADOW_PACKET_MAX_PRIMS coherent packets walk the
+// BVH as one; above it they go ray by ray.
+template <class T>
+void check_shadow_packets(int n_spheres) {
+  auto scene = bvh_test::random_scene<T>(0, 0, 3u);  // materials, lights and the plane
+  std::mt19937 rng(5u);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int i = 0; i < n_spheres; ++i)
+    scene.add(twinray::Sphere<T>{vec3<T>(T(4 * u(rng)), T(1.5 * u(rng)), T(-3 + 2 * u(rng))),
+                                 T(0.004), i % 4});
+  const auto ps = packed(scene, 8);
+  twinray::RenderOptions options;
+  const auto frame =
+      twinray::pack_frame(ps.summary(), {bvh_test::test_camera<T>(8, 8), {}, options});
+  const auto ref = frame.ref(ps);
+  auto scratch = std::make_unique<typename Code<T>::BlockScratch>();
+  auto& pk = scratch->packet;
+  int blocked[TR_PACKET_MAX];
+  int answers[2] = {0, 0};
+  const vec3<T> light(T(-2), T(-4), T(2));
+  for (int trial = 0; trial < 12; ++trial) {
+    const vec3<T> patch(T(3.5 * u(rng)), T(1.2 * u(rng)), T(-3 + 1.5 * u(rng)));
+    T tmax[TR_PACKET_MAX];
+    pk.n = TR_PACKET_MAX;
+    for (int r = 0; r < pk.n; ++r) {
+      const vec3<T> o = patch + vec3<T>(T(0.01 * (r % 8)), T(0.01 * (r / 8)), T(0));
+      pk.ray[r] = ray<T>(o, light - o);
+      tmax[r] = pk.t[r] = T(glm::length(light - o));
+    }
+    K<T>::tr_any_hit_packet(&ref, &pk, blocked);
+    for (int r = 0; r < pk.n; ++r) {
+      CAPTURE(trial);
+      CAPTURE(r);
+      CHECK(blocked[r] == K<T>::tr_any_hit(&ref, &pk.ray[r], tmax[r]));
+      ++answers[blocked[r] != 0];
+    }
+  }
+  CHECK(answers[0] > 0);  // both answers occur
+  CHECK(answers[1] > 0);
+}
+
 template <class T>
 twinray::Image<T> per_pixel(const twinray::PackedScene<T>& ps,
                             const twinray::RenderRequest<T>& request) {
@@ -198,4 +243,10 @@ TEST_CASE_TEMPLATE("packet queries give each ray what its own walk gives", T, fl
 TEST_CASE_TEMPLATE("blocks traced a segment at a time give the per-pixel image's bits", T, float,
                    double) {
   check_images<T>();
+}
+
+TEST_CASE_TEMPLATE("shadow packets give each ray its own answer, below and above the threshold", T,
+                   float, double) {
+  check_shadow_packets<T>(3000);
+  check_shadow_packets<T>(TR_SHADOW_PACKET_MAX_PRIMS + 1);
 }
