@@ -8,16 +8,16 @@
 #include "twinray/device/types.h"
 #include "twinray/device/functions.h"
 
-#define TR_SCENE_ARGS                                                               \
-  __global const TrParams *params, __global const TrSphere *spheres,                \
-      __global const TrTriangle *triangles, __global const TrPlane *planes,         \
-      __global const TrMaterial *materials, __global const TrLight *lights,         \
-      __global const real *bvh_boxes, __global const int *bvh_links,                \
-      __global const int *bvh_prims, __global const TrTriangleAttr *triangle_attrs, \
-      __global const TrTexture *textures, __global const real *texels
-#define TR_SCENE_ARG_NAMES                                                                \
-  params, spheres, triangles, planes, materials, lights, bvh_boxes, bvh_links, bvh_prims, \
-      triangle_attrs, textures, texels
+#define TR_SCENE_ARGS                                                                    \
+  __global const TrParams *params, __global const TrSphere *spheres,                     \
+      __global const TrTriangle *triangles, __global const TrPlane *planes,              \
+      __global const TrMaterial *materials, __global const TrLight *lights,              \
+      __global const real *bvh_nodes, __global const int *bvh_prims,                     \
+      __global const TrTriangleAttr *triangle_attrs, __global const TrTexture *textures, \
+      __global const real *texels
+#define TR_SCENE_ARG_NAMES                                                                     \
+  params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims, triangle_attrs, \
+      textures, texels
 
 static inline TrSceneRef tr_scene_ref(TR_SCENE_ARGS) {
   TrSceneRef s;
@@ -27,8 +27,7 @@ static inline TrSceneRef tr_scene_ref(TR_SCENE_ARGS) {
   s.planes = planes;
   s.materials = materials;
   s.lights = lights;
-  s.bvh_boxes = bvh_boxes;
-  s.bvh_links = bvh_links;
+  s.bvh_nodes = bvh_nodes;
   s.bvh_prims = bvh_prims;
   s.triangle_attrs = triangle_attrs;
   s.textures = textures;
@@ -148,7 +147,7 @@ __kernel void tr_kernel_layout_sizes(__global int* out) {
   out[2] = (int)sizeof(TrPlane);
   out[3] = (int)sizeof(TrMaterial);
   out[4] = (int)sizeof(TrLight);
-  out[5] = (int)sizeof(real); /* bvh_boxes */
+  out[5] = (int)sizeof(real); /* bvh_nodes' boxes */
   out[6] = (int)sizeof(TrParams);
   out[7] = (int)sizeof(TrTriangleAttr);
   out[8] = (int)sizeof(TrTexture);

@@ -189,17 +189,16 @@ TEST_CASE("a CPU device reads the packed scene and writes the image in place") {
     CHECK(host_ptr(args[arg]) == (wrapped ? data : nullptr));
   };
   REQUIRE(!arrays->spheres.empty());
-  REQUIRE(!arrays->bvh_boxes.empty());
+  REQUIRE(!arrays->bvh_nodes.empty());
   check_array(1, arrays->spheres.data(), arrays->spheres.size());
   check_array(2, arrays->triangles.data(), arrays->triangles.size());
   check_array(3, arrays->planes.data(), arrays->planes.size());
   check_array(4, arrays->materials.data(), arrays->materials.size());
-  check_array(6, arrays->bvh_boxes.data(), arrays->bvh_boxes.size());
-  check_array(7, arrays->bvh_links.data(), arrays->bvh_links.size());
-  check_array(8, arrays->bvh_prims.data(), arrays->bvh_prims.size());
-  check_array(9, arrays->triangle_attrs.data(), arrays->triangle_attrs.size());
-  check_array(10, arrays->textures.data(), arrays->textures.size());
-  check_array(11, arrays->texels.data(), arrays->texels.size());
+  check_array(6, arrays->bvh_nodes.data(), static_cast<size_t>(arrays->bvh_nodes.size()));
+  check_array(7, arrays->bvh_prims.data(), arrays->bvh_prims.size());
+  check_array(8, arrays->triangle_attrs.data(), arrays->triangle_attrs.size());
+  check_array(9, arrays->textures.data(), arrays->textures.size());
+  check_array(10, arrays->texels.data(), arrays->texels.size());
   // Later frames, and a new scene, still render what the CPU renders.
   d.camera.position.x += 0.25f;
   CHECK(test::differing_values(backend.render({d.camera, d.scene.lights, options, {}}),

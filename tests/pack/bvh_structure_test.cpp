@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <limits>
 #include <random>
@@ -62,14 +63,14 @@ void check_structure(const PackedScene<T>& ps) {
   const int n_nodes = ps.bvh_node_count();
   int n = static_cast<int>(ps.spheres.size() + ps.triangles.size());
   REQUIRE(n_nodes > 0);
-  REQUIRE(ps.bvh_boxes.size() == static_cast<size_t>(6 * w * n_nodes));
-  REQUIRE(ps.bvh_links.size() == static_cast<size_t>(2 * w * n_nodes));
+  REQUIRE(ps.bvh_nodes.width() == w);
+  REQUIRE(ps.bvh_nodes.bytes() ==
+          static_cast<size_t>(n_nodes) * (6 * w * sizeof(T) + 2 * w * sizeof(int)));
+  REQUIRE(reinterpret_cast<std::uintptr_t>(ps.bvh_nodes.data()) % 64 == 0);
   REQUIRE(static_cast<int>(ps.bvh_prims.size()) == n);
   CHECK(ps.summary().n_bvh_nodes == n_nodes);
   CHECK((ps.features & TR_F_BVH) == twinray::bvh::width_feature(w));
-  auto box = [&](int node, int plane, int k) {
-    return ps.bvh_boxes[static_cast<size_t>((node * 6 + plane) * w + k)];
-  };
+  auto box = [&](int node, int plane, int k) { return ps.bvh_nodes.boxes(node)[plane * w + k]; };
   std::vector<int> seen_node(static_cast<size_t>(n_nodes), 0), seen_prim(static_cast<size_t>(n), 0);
   // (node, inner nodes on the path including it, the parent's slot holding it, the
   // stack entries its ancestors may have pushed: inner children - 1 each)
@@ -85,7 +86,7 @@ void check_structure(const PackedScene<T>& ps) {
     REQUIRE(t.node < n_nodes);
     seen_node[t.node]++;
     max_depth = std::max(max_depth, t.depth);
-    const int* first = ps.bvh_links.data() + static_cast<size_t>(t.node) * 2 * w;
+    const int* first = ps.bvh_nodes.links(t.node);
     const int* count = first + w;
     CHECK(count[0] >= 0);  // no node is empty
     const int stack = t.stack + std::max(int(std::count(count, count + w, 0)) - 1, 0);
@@ -127,7 +128,7 @@ void check_structure(const PackedScene<T>& ps) {
   CHECK(std::all_of(seen_prim.begin(), seen_prim.end(), [](int c) { return c == 1; }));
   // The traversal goes on into one inner child and pushes the others: the stack never
   // holds more than the largest sum over a path, which must fit.
-  const twinray::bvh::Stats st = twinray::bvh::wide_stats(ps.bvh_links, w);
+  const twinray::bvh::Stats st = twinray::bvh::wide_stats(ps.bvh_nodes);
   CHECK(max_depth == st.max_depth);
   CHECK(max_stack == st.stack_need);
   CHECK(max_stack <= TR_BVH_STACK_SIZE);
@@ -195,7 +196,7 @@ TEST_CASE("bvh: wider nodes are fewer and fuller") {
   double last_fill = 0;
   for (int w : twinray::bvh::kWidths) {
     auto ps = pack_with_bvh(scene, 0, w);
-    twinray::bvh::Stats st = twinray::bvh::wide_stats(ps.bvh_links, w);
+    twinray::bvh::Stats st = twinray::bvh::wide_stats(ps.bvh_nodes);
     nodes[w] = st.nodes;
     // Children per node: (nodes - 1) inner children plus the leaves, over the nodes.
     double fill = double(st.nodes - 1 + st.leaves) / st.nodes;
@@ -207,7 +208,7 @@ TEST_CASE("bvh: wider nodes are fewer and fuller") {
       const auto binary = twinray::bvh::build_binary<float>(ps.spheres, ps.triangles);
       const auto fixed =
           twinray::bvh::collapse(binary, w, twinray::bvh::detail::Collapse::FixedLevels);
-      CHECK(st.nodes < twinray::bvh::node_count(fixed.links, w));
+      CHECK(st.nodes < fixed.node_count());
     }
   }
   CHECK(nodes[4] < 0.6 * nodes[2]);
@@ -220,11 +221,8 @@ TEST_CASE("bvh: the build does not depend on the thread count") {
   check_structure(c);
   CHECK(a.bvh_prims == b.bvh_prims);
   CHECK(a.bvh_prims == c.bvh_prims);
-  CHECK(a.bvh_links == b.bvh_links);
-  CHECK(a.bvh_links == c.bvh_links);
-  REQUIRE(a.bvh_boxes.size() == c.bvh_boxes.size());
-  CHECK(std::memcmp(a.bvh_boxes.data(), c.bvh_boxes.data(),
-                    a.bvh_boxes.size() * sizeof a.bvh_boxes[0]) == 0);
+  CHECK(a.bvh_nodes == b.bvh_nodes);
+  CHECK(a.bvh_nodes == c.bvh_nodes);
 }
 
 TEST_CASE("bvh: depth stays within the stack on degenerate input") {
@@ -255,7 +253,7 @@ TEST_CASE("bvh: depth stays within the stack on degenerate input") {
   CHECK(binary >= twinray::bvh::kMaxDepth - 8);
   // The greedy collapse opens the chain's next link in each node, so an 8-wide node takes
   // up to 7 links of it: the tree is about 7 times shallower and needs almost no stack.
-  const twinray::bvh::Stats st = twinray::bvh::wide_stats(deep.bvh_links, 8);
+  const twinray::bvh::Stats st = twinray::bvh::wide_stats(deep.bvh_nodes);
   CHECK(st.max_depth <= binary / 6 + 1);
   CHECK(st.stack_need <= 7);
 }
@@ -276,8 +274,8 @@ TEST_CASE("bvh: pack builds one from the threshold on, and not below it") {
     auto ps = test_support::pack(bvh_test::random_scene<float>(n_spheres, n_triangles, 1u), camera,
                                  options);
     CHECK(ps.params().n_bvh_nodes == ps.scene.bvh_node_count());
-    CHECK(((ps.frame.features & TR_F_BVH) != 0u) == !ps.scene.bvh_links.empty());
-    return !ps.scene.bvh_links.empty();
+    CHECK(((ps.frame.features & TR_F_BVH) != 0u) == !ps.scene.bvh_nodes.empty());
+    return !ps.scene.bvh_nodes.empty();
   };
   const int w = static_cast<int>(twinray::bvh::kMinWeight);
   const int tw = twinray::bvh::kTriangleWeight;
@@ -326,16 +324,16 @@ TEST_CASE("bvh: a greedy tree that would overflow the stack is collapsed at fixe
 
   using twinray::bvh::detail::Collapse;
   twinray::bvh::Bvh<float> greedy;
-  greedy.width = 8;
+  greedy.nodes = twinray::bvh::WideNodes<float>(8);
   int greedy_stack = 0;
   twinray::bvh::detail::collapse_node(binary.nodes, 0, Collapse::Greedy, greedy, &greedy_stack);
   CHECK(greedy_stack > TR_BVH_STACK_SIZE);
-  CHECK(twinray::bvh::wide_stats(greedy.links, 8).stack_need == greedy_stack);
+  CHECK(twinray::bvh::wide_stats(greedy.nodes).stack_need == greedy_stack);
 
   const auto chosen = twinray::bvh::collapse(binary, 8);
   const auto fixed = twinray::bvh::collapse(binary, 8, Collapse::FixedLevels);
-  CHECK(chosen.links == fixed.links);
-  CHECK(twinray::bvh::wide_stats(chosen.links, 8).stack_need <= twinray::bvh::stack_needed(8));
+  CHECK(chosen.nodes == fixed.nodes);
+  CHECK(twinray::bvh::wide_stats(chosen.nodes).stack_need <= twinray::bvh::stack_needed(8));
 }
 
 TEST_CASE_TEMPLATE("bvh: the builder's rounding step is std::nextafter's", R, float, double) {

@@ -47,8 +47,8 @@ twinray::PackedScene<T> shuffled(twinray::PackedScene<T> ps, uint32_t seed) {
   const int w = ps.bvh_width;
   int moved = 0;
   for (int node = 0; node < ps.bvh_node_count(); ++node) {
-    T* box = ps.bvh_boxes.data() + static_cast<size_t>(node) * 6 * w;
-    int* link = ps.bvh_links.data() + static_cast<size_t>(node) * 2 * w;
+    T* box = ps.bvh_nodes.boxes(node);
+    int* link = ps.bvh_nodes.links(node);
     std::vector<int> perm(static_cast<size_t>(w));
     for (int k = 0; k < w; ++k) perm[static_cast<size_t>(k)] = k;
     std::shuffle(perm.begin(), perm.end(), rng);

@@ -38,8 +38,7 @@ namespace test_support {
 template <class T>
 twinray::PackedScene<T> without_bvh(twinray::PackedScene<T> ps) {
   ps.bvh_width = 0;
-  ps.bvh_boxes.clear();
-  ps.bvh_links.clear();
+  ps.bvh_nodes.clear();
   ps.bvh_prims.clear();
   ps.features &= ~unsigned(TR_F_BVH);
   return ps;

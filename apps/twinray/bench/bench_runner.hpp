@@ -179,8 +179,8 @@ Row run(const BenchScene<T>& b, twinray::Backend backend, const Config& config) 
   row.build_ms = ms_since(t0);
   row.primitives =
       static_cast<long long>(ps->spheres.size() + ps->triangles.size() + ps->planes.size());
-  if (!ps->bvh_links.empty()) {
-    twinray::bvh::Stats st = twinray::bvh::wide_stats(ps->bvh_links, ps->bvh_width);
+  if (!ps->bvh_nodes.empty()) {
+    twinray::bvh::Stats st = twinray::bvh::wide_stats(ps->bvh_nodes);
     char buf[200];
     std::snprintf(buf, sizeof buf,
                   ": BVH%d %d nodes, %d leaves (%.2f primitives each, at most %d), depth %d, "

@@ -271,9 +271,9 @@ TR_FN_INLINE int tr_packet_walk_wide(const TrSceneRef* s, TrRayPacket* pk, int a
   int leaf_tests = 0, leaf_entries = 0;
   for (;;) {
     if (--visits_left < 0) return 0;
-    TR_GLOBAL const int* first = s->bvh_links + index * 2 * W;
+    TR_GLOBAL const real* boxes = tr_bvh_node(s, index, W);
+    TR_GLOBAL const int* first = tr_bvh_node_links(boxes, W);
     TR_GLOBAL const int* count = first + W;
-    TR_GLOBAL const real* boxes = s->bvh_boxes + index * 6 * W;
     real t_entry[TR_BVH_MAX_WIDTH];
     unsigned mask = tr_packet_hits_boxes(boxes, pk, tmax_grown, W, t_entry);
     unsigned inner = 0u;

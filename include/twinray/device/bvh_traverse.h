@@ -1,4 +1,4 @@
-/* Iterative traversal of the W-wide BVH (types.h: bvh_boxes, bvh_links) with a small
+/* Iterative traversal of the W-wide BVH (types.h: bvh_nodes) with a small
  * fixed stack (no recursion: OpenCL C has none). The one walk serves W = 2, 4 and 8: W
  * is an argument that every caller passes as a constant to an always-inlined body, so
  * each width is compiled with a fixed trip count for its box loop, which g++
@@ -14,6 +14,16 @@
  * nodes of W - 1 entries each: 48 entries at W = 2, 72 at 4, 112 at 8. */
 #define TR_BVH_MAX_DEPTH 48
 #define TR_BVH_STACK_SIZE 112
+
+/* Node `index` of the W-wide tree (types.h, "The BVH"): its boxes, 6 W reals, then its
+ * links, 2 W ints (the room of 2 W reals in float, W in double). */
+TR_FN_INLINE TR_GLOBAL const real* tr_bvh_node(const TrSceneRef* s, int index, int W) {
+  return s->bvh_nodes + index * (6 * W + 2 * W * (int)sizeof(int) / (int)sizeof(real));
+}
+/* The node's links: first[W], then count[W]. */
+TR_FN_INLINE TR_GLOBAL const int* tr_bvh_node_links(TR_GLOBAL const real* node, int W) {
+  return (TR_GLOBAL const int*)(node + 6 * W);
+}
 
 /* BVH primitive ids: spheres first, then triangles. Only the distance: see TrNearest. */
 TR_FN_INLINE real tr_primitive_t(const TrSceneRef* s, int prim, TrRay ray,
@@ -216,11 +226,11 @@ TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nea
   int top = 0;
   int index = 0;
   for (;;) {
-    TR_GLOBAL const int* first = s->bvh_links + index * 2 * W;
+    TR_GLOBAL const real* node = tr_bvh_node(s, index, W);
+    TR_GLOBAL const int* first = tr_bvh_node_links(node, W);
     TR_GLOBAL const int* count = first + W;
     real t_entry[TR_BVH_MAX_WIDTH];
-    unsigned mask =
-        tr_ray_hits_boxes(s->bvh_boxes + index * 6 * W, &box_ray, nearest->t * grow, W, t_entry);
+    unsigned mask = tr_ray_hits_boxes(node, &box_ray, nearest->t * grow, W, t_entry);
     unsigned inner = 0u;
     while (mask != 0u) {
       int k = TR_LOWEST_BIT(mask);

@@ -58,21 +58,27 @@ typedef struct TrLight {
   real px, py, pz, r, g, b;
 } TrLight;
 
-/* The BVH, W children per node (W = 2, 4 or 8: the TR_F_BVH2/4/8 bit of the scene),
- * as two flat arrays indexed by node. No struct: its size would depend on W.
- *  - bvh_boxes, 6 W reals per node: the children's boxes as structure of arrays, plane
- *    by plane (min x of the W children, then min y, min z, max x, max y, max z), so the
- *    walk tests all W boxes with one loop over contiguous values (bvh_traverse.h);
- *  - bvh_links, 2 W ints per node: first[W], then count[W]. Child k is a leaf when
- *    count[k] > 0 (primitives bvh_prims[first[k] .. first[k] + count[k])), an inner
- *    node when count[k] == 0 (node first[k]) and an empty slot when count[k] < 0; an
- *    empty slot's box is empty (min +inf, max -inf), so no ray enters it.
+/* The BVH, W children per node (W = 2, 4 or 8: the TR_F_BVH2/4/8 bit of the scene), in
+ * one buffer, bvh_nodes, node after node (bvh_traverse.h tr_bvh_node). No struct: its
+ * size would depend on W. A node holds
+ *  - 6 W reals: the children's boxes as structure of arrays, plane by plane (min x of
+ *    the W children, then min y, min z, max x, max y, max z), so the walk tests all W
+ *    boxes with one loop over contiguous values (bvh_traverse.h);
+ *  - then 2 W ints: first[W], then count[W]. Child k is a leaf when count[k] > 0
+ *    (primitives bvh_prims[first[k] .. first[k] + count[k])), an inner node when
+ *    count[k] == 0 (node first[k]) and an empty slot when count[k] < 0; an empty
+ *    slot's box is empty (min +inf, max -inf), so no ray enters it.
+ * A node's links follow its boxes in memory: a walk that tests the boxes finds the links
+ * in the cache lines it has just read, where two arrays cost a second miss per node
+ * (3-4% of a frame of 1e6 triangles or spheres, docs/performance.md). 6 W reals keep
+ * the ints aligned, and 2 W ints fill W or 2 W whole reals, so every node starts
+ * aligned for both. The buffer is only ever read, each value through its own type.
  * Node 0 is the root. */
 #define TR_BVH_MIN_X 0
 #define TR_BVH_MAX_X 3
 #define TR_BVH_MAX_WIDTH 8
 
-/* The rows of a wide node's boxes (bvh_boxes) that the slab test reads for a direction:
+/* The rows of a wide node's boxes that the slab test reads for a direction:
  * per axis the plane a ray meets first (the max plane where d < 0) and the one it
  * leaves by (bvh_traverse.h tr_slab_rows). */
 typedef struct TrSlabRows {
@@ -124,8 +130,7 @@ typedef struct TrSceneRef {
   TR_GLOBAL const TrPlane* planes;
   TR_GLOBAL const TrMaterial* materials;
   TR_GLOBAL const TrLight* lights;
-  TR_GLOBAL const real* bvh_boxes;
-  TR_GLOBAL const int* bvh_links;
+  TR_GLOBAL const real* bvh_nodes;
   TR_GLOBAL const int* bvh_prims;
   TR_GLOBAL const TrTriangleAttr* triangle_attrs;
   TR_GLOBAL const TrTexture* textures;

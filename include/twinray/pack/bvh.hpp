@@ -5,7 +5,8 @@
 // backends.
 //
 // Layout (device/types.h, "The BVH"): node 0 is the root; each node holds its W
-// children's boxes as structure of arrays and a (first, count) link per child; a leaf's
+// children's boxes as structure of arrays and then a (first, count) link per child
+// (WideNodes); a leaf's
 // primitives are bvh_prims[first .. first + count). Primitive ids: spheres first
 // (0 .. n_spheres - 1), then triangles. build() returns the nodes and the order of the
 // primitives in the leaves; pack() reorders the scene's arrays by it.
@@ -92,10 +93,74 @@ constexpr int log2_width(int w) {
 constexpr unsigned width_feature(int w) {
   return w == 8 ? TR_F_BVH8 : w == 4 ? TR_F_BVH4 : TR_F_BVH2;
 }
-// Nodes in a tree of this width whose links array has this many entries.
-inline int node_count(const std::vector<int>& links, int width) {
-  return width > 0 ? static_cast<int>(links.size()) / (2 * width) : 0;
-}
+// The nodes of a `width`-wide tree as the device code reads them (device/types.h, "The
+// BVH"): node after node, each its W children's boxes (6 W reals, plane by plane) and
+// then their links (first[W], count[W]), in one block, so that a walk finds a node's
+// boxes and links in the same cache lines. The block starts on a 64-byte boundary; 2-,
+// 4- and 8-wide float nodes fill whole cache lines. Bytes, not a vector of T: a node
+// holds reals and ints side by side, each read through its own type.
+template <class T>
+class WideNodes {
+ public:
+  WideNodes() = default;
+  explicit WideNodes(int width) : width_(width) {}
+
+  static constexpr size_t node_bytes(int width) {
+    return 6 * static_cast<size_t>(width) * sizeof(T) +
+           2 * static_cast<size_t>(width) * sizeof(int);
+  }
+  int width() const { return width_; }
+  int size() const { return nodes_; }  // nodes
+  bool empty() const { return nodes_ == 0; }
+  size_t bytes() const { return static_cast<size_t>(nodes_) * node_bytes(width_); }
+  const void* data() const { return lines_.data(); }
+
+  void reserve(size_t nodes) { lines_.reserve(lines_for(nodes)); }
+  // Appends a node of zero bytes and returns its index. Pointers from boxes() and
+  // links() may move.
+  int push() {
+    ++nodes_;
+    lines_.resize(lines_for(static_cast<size_t>(nodes_)));
+    return nodes_ - 1;
+  }
+  void clear() {
+    lines_.clear();
+    nodes_ = 0;
+  }
+
+  // Node i's boxes (6 W reals: min x of the W children, then min y, ... max z) and
+  // links (first[W], then count[W]).
+  T* boxes(int i) { return reinterpret_cast<T*>(node(i)); }
+  const T* boxes(int i) const { return reinterpret_cast<const T*>(node(i)); }
+  int* links(int i) { return reinterpret_cast<int*>(node(i) + 6 * width_ * sizeof(T)); }
+  const int* links(int i) const {
+    return reinterpret_cast<const int*>(node(i) + 6 * width_ * sizeof(T));
+  }
+
+  // The same width and the same bytes.
+  friend bool operator==(const WideNodes& a, const WideNodes& b) {
+    return a.width_ == b.width_ && a.nodes_ == b.nodes_ &&
+           (a.nodes_ == 0 || std::memcmp(a.data(), b.data(), a.bytes()) == 0);
+  }
+
+ private:
+  struct alignas(64) Line {
+    unsigned char bytes[64];
+  };
+  size_t lines_for(size_t nodes) const { return (nodes * node_bytes(width_) + 63) / 64; }
+  unsigned char* node(int i) {
+    return reinterpret_cast<unsigned char*>(lines_.data()) +
+           static_cast<size_t>(i) * node_bytes(width_);
+  }
+  const unsigned char* node(int i) const {
+    return reinterpret_cast<const unsigned char*>(lines_.data()) +
+           static_cast<size_t>(i) * node_bytes(width_);
+  }
+
+  std::vector<Line> lines_;
+  int width_ = 0;
+  int nodes_ = 0;
+};
 
 // The stack bound of a tree collapsed at fixed levels: W - 1 entries per inner wide node
 // on a path, and a path holds at most floor((kMaxDepth - 1) / L) + 1 of them (see the
@@ -502,11 +567,10 @@ struct BinaryBvh {
 // primitives, by which pack() reorders the scene's arrays (pack/pack.hpp).
 template <class T>
 struct Bvh {
-  int width = 0;
-  std::vector<T> boxes;    // 6 * width per node
-  std::vector<int> links;  // 2 * width per node: first[width], count[width]
+  WideNodes<T> nodes;
   std::vector<int> order;
-  int node_count() const { return bvh::node_count(links, width); }
+  int width() const { return nodes.width(); }
+  int node_count() const { return nodes.size(); }
 };
 
 // Builds the binary SAH tree of these spheres and triangles; touches nothing else.
@@ -618,16 +682,14 @@ int gather_children(const std::vector<BinaryNode<T>>& binary, int b, int w, Coll
 template <class T>
 int collapse_node(const std::vector<BinaryNode<T>>& binary, int b, Collapse how, Bvh<T>& out,
                   int* stack) {
-  const int w = out.width;
-  const int self = out.node_count();
-  out.boxes.resize(out.boxes.size() + static_cast<size_t>(6 * w));
-  out.links.resize(out.links.size() + static_cast<size_t>(2 * w));
+  const int w = out.width();
+  const int self = out.nodes.push();
   int children[TR_BVH_MAX_WIDTH];
   const int n = gather_children(binary, b, w, how, children);
   int inner = 0, below = 0;
   for (int k = 0; k < w; ++k) {
-    T* box = out.boxes.data() + static_cast<size_t>(self) * 6 * w;
-    int* link = out.links.data() + static_cast<size_t>(self) * 2 * w;
+    T* box = out.nodes.boxes(self);
+    int* link = out.nodes.links(self);
     if (k >= n) {  // empty slot: a box no ray enters
       for (int a = 0; a < 3; ++a) {
         box[(TR_BVH_MIN_X + a) * w + k] = std::numeric_limits<T>::infinity();
@@ -647,8 +709,8 @@ int collapse_node(const std::vector<BinaryNode<T>>& binary, int b, Collapse how,
       below = std::max(below, child_stack);
       ++inner;
     }
-    // The recursion grows the arrays: write the link through a fresh pointer after it.
-    out.links[static_cast<size_t>(self) * 2 * w + static_cast<size_t>(k)] = first;
+    // The recursion grows the nodes: write the link through a fresh pointer after it.
+    out.nodes.links(self)[k] = first;
   }
   *stack = std::max(inner - 1, 0) + below;
   return self;
@@ -663,7 +725,7 @@ template <class T>
 Bvh<T> collapse(const BinaryBvh<T>& binary, int width,
                 detail::Collapse how = detail::Collapse::Greedy) {
   Bvh<T> out;
-  out.width = width;
+  out.nodes = WideNodes<T>(width);
   if (binary.nodes.empty()) return out;
   // At most one wide node per inner binary node (plus a root leaf): reserved once, since
   // growing copied the arrays and touched fresh pages once or twice more (leaves of a few
@@ -671,14 +733,12 @@ Bvh<T> collapse(const BinaryBvh<T>& binary, int width,
   // this reserved before: 2.3 times too few for a 1e6-triangle mesh). Pages the nodes do
   // not fill are never touched, so they cost address space, not memory.
   const size_t most = binary.nodes.size() / 2 + 1;
-  out.boxes.reserve(most * 6 * static_cast<size_t>(width));
-  out.links.reserve(most * 2 * static_cast<size_t>(width));
+  out.nodes.reserve(most);
   int stack = 0;
   detail::collapse_node(binary.nodes, 0, how, out, &stack);
   if (stack > TR_BVH_STACK_SIZE) {
     // At fixed levels the need is at most stack_needed(width) (static_assert above).
-    out.boxes.clear();
-    out.links.clear();
+    out.nodes.clear();
     detail::collapse_node(binary.nodes, 0, detail::Collapse::FixedLevels, out, &stack);
   }
   return out;
@@ -717,11 +777,13 @@ Stats stats(const std::vector<BinaryNode<T>>& nodes) {
   return st;
 }
 
-// The same of a wide tree given as its links; max_depth counts inner nodes on a path.
-inline Stats wide_stats(const std::vector<int>& links, int width) {
+// The same of a wide tree; max_depth counts inner nodes on a path.
+template <class T>
+Stats wide_stats(const WideNodes<T>& nodes) {
   Stats st;
-  if (links.empty()) return st;
-  st.nodes = node_count(links, width);
+  if (nodes.empty()) return st;
+  const int width = nodes.width();
+  st.nodes = nodes.size();
   struct Visit {
     int node, depth, stack;  // stack: entries the ancestors may have pushed
   };
@@ -730,7 +792,7 @@ inline Stats wide_stats(const std::vector<int>& links, int width) {
     const Visit v = todo.back();
     todo.pop_back();
     st.max_depth = std::max(st.max_depth, v.depth);
-    const int* link = links.data() + static_cast<size_t>(v.node) * 2 * width;
+    const int* link = nodes.links(v.node);
     int inner = 0;
     for (int k = 0; k < width; ++k) inner += link[width + k] == 0;
     const int stack = v.stack + std::max(inner - 1, 0);

@@ -59,8 +59,7 @@ struct PackedScene {
   std::vector<typename Code::Material> materials;
   // The BVH (device/types.h, "The BVH"): bvh_width children per node; empty without one.
   int bvh_width = 0;
-  std::vector<T> bvh_boxes;
-  std::vector<int> bvh_links;
+  bvh::WideNodes<T> bvh_nodes;
   std::vector<int> bvh_prims;
   // One per triangle, in the same order, when some mesh has normals or uvs; else empty.
   std::vector<typename Code::TriangleAttr> triangle_attrs;
@@ -84,14 +83,13 @@ struct PackedScene {
     return s;
   }
 
-  int bvh_node_count() const { return bvh::node_count(bvh_links, bvh_width); }
+  int bvh_node_count() const { return bvh_nodes.size(); }
 
   // Bytes the arrays hold (what an upload sends).
   size_t bytes() const {
     return spheres.size() * sizeof(spheres[0]) + triangles.size() * sizeof(triangles[0]) +
            planes.size() * sizeof(planes[0]) + materials.size() * sizeof(materials[0]) +
-           bvh_boxes.size() * sizeof(T) + bvh_links.size() * sizeof(int) +
-           bvh_prims.size() * sizeof(int) +
+           bvh_nodes.bytes() + bvh_prims.size() * sizeof(int) +
            triangle_attrs.size() * sizeof(typename Code::TriangleAttr) +
            textures.size() * sizeof(typename Code::Texture) + texels.size() * sizeof(T);
   }
@@ -139,8 +137,7 @@ struct PackedFrame {
     s.planes = scene.planes.data();
     s.materials = scene.materials.data();
     s.lights = lights.data();
-    s.bvh_boxes = scene.bvh_boxes.data();
-    s.bvh_links = scene.bvh_links.data();
+    s.bvh_nodes = scene.bvh_nodes.empty() ? nullptr : scene.bvh_nodes.boxes(0);
     s.bvh_prims = scene.bvh_prims.data();
     s.triangle_attrs = scene.triangle_attrs.data();
     s.textures = scene.textures.data();
@@ -297,14 +294,13 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
     ps.spheres.swap(spheres);
     ps.triangles.swap(triangles);
     ps.triangle_attrs.swap(attrs);
-    ps.bvh_width = tree.width;
-    ps.bvh_boxes = std::move(tree.boxes);
-    ps.bvh_links = std::move(tree.links);
+    ps.bvh_width = tree.width();
+    ps.bvh_nodes = std::move(tree.nodes);
   }
   if (!ps.spheres.empty()) ps.features |= TR_F_SPHERES;
   if (!ps.triangles.empty()) ps.features |= TR_F_TRIANGLES;
   if (!ps.planes.empty()) ps.features |= TR_F_PLANES;
-  if (!ps.bvh_links.empty()) ps.features |= bvh::width_feature(ps.bvh_width);
+  if (!ps.bvh_nodes.empty()) ps.features |= bvh::width_feature(ps.bvh_width);
   if (!ps.triangle_attrs.empty()) ps.features |= TR_F_ATTRIBUTES;
   for (const Material<T>& m : scene.materials)
     if (m.texture >= 0) ps.features |= TR_F_TEXTURES;

@@ -73,9 +73,9 @@ class Buffer {
 };
 
 // The buffers every kernel in kernels/render.cl takes as its first arguments, in this
-// order: params, spheres, triangles, planes, materials, lights, bvh_boxes, bvh_links,
-// bvh_prims, triangle_attrs, textures, texels.
-constexpr cl_uint kSceneArgs = 12;
+// order: params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims,
+// triangle_attrs, textures, texels.
+constexpr cl_uint kSceneArgs = 11;
 
 class SceneBuffers {
  public:
@@ -83,21 +83,19 @@ class SceneBuffers {
   // the host's memory), wrapped where they are: then `ps` must outlive the buffers.
   template <class T>
   void upload_scene(const Context& ctx, const PackedScene<T>& ps, bool in_place) {
-    auto put = [&](Buffer& b, const auto& v) {
-      const size_t bytes = v.size() * sizeof(v[0]);
+    auto put_bytes = [&](Buffer& b, const void* data, size_t bytes) {
       if (in_place)  // read-only on both sides: the const_cast only meets the C API
-        b.wrap(ctx.context(), CL_MEM_READ_ONLY,
-               const_cast<void*>(static_cast<const void*>(v.data())), bytes,
+        b.wrap(ctx.context(), CL_MEM_READ_ONLY, const_cast<void*>(data), bytes,
                "clCreateBuffer (scene data, host memory)");
       else
-        b.write(ctx, CL_MEM_READ_ONLY, v.data(), bytes, "clCreateBuffer (scene data)");
+        b.write(ctx, CL_MEM_READ_ONLY, data, bytes, "clCreateBuffer (scene data)");
     };
+    auto put = [&](Buffer& b, const auto& v) { put_bytes(b, v.data(), v.size() * sizeof(v[0])); };
     put(spheres_, ps.spheres);
     put(triangles_, ps.triangles);
     put(planes_, ps.planes);
     put(materials_, ps.materials);
-    put(bvh_boxes_, ps.bvh_boxes);
-    put(bvh_links_, ps.bvh_links);
+    put_bytes(bvh_nodes_, ps.bvh_nodes.data(), ps.bvh_nodes.bytes());
     put(bvh_prims_, ps.bvh_prims);
     put(triangle_attrs_, ps.triangle_attrs);
     put(textures_, ps.textures);
@@ -114,15 +112,15 @@ class SceneBuffers {
   }
 
   std::array<cl_mem, kSceneArgs> args() const {
-    return {params_.mem(),    spheres_.mem(),        triangles_.mem(), planes_.mem(),
-            materials_.mem(), lights_.mem(),         bvh_boxes_.mem(), bvh_links_.mem(),
-            bvh_prims_.mem(), triangle_attrs_.mem(), textures_.mem(),  texels_.mem()};
+    return {params_.mem(),         spheres_.mem(),  triangles_.mem(), planes_.mem(),
+            materials_.mem(),      lights_.mem(),   bvh_nodes_.mem(), bvh_prims_.mem(),
+            triangle_attrs_.mem(), textures_.mem(), texels_.mem()};
   }
   cl_mem params() const { return params_.mem(); }
 
  private:
-  Buffer params_, spheres_, triangles_, planes_, materials_, lights_, bvh_boxes_, bvh_links_,
-      bvh_prims_, triangle_attrs_, textures_, texels_;
+  Buffer params_, spheres_, triangles_, planes_, materials_, lights_, bvh_nodes_, bvh_prims_,
+      triangle_attrs_, textures_, texels_;
 };
 
 }  // namespace opencl

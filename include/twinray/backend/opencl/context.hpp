@@ -44,7 +44,8 @@ class Context {
 
   // sizeof of every buffer struct as this device's compiler lays it out (kernel
   // tr_kernel_layout_sizes): TrSphere, TrTriangle, TrPlane, TrMaterial, TrLight,
-  // real (bvh_boxes), TrParams, TrTriangleAttr, TrTexture. Must equal the host's (device/code.hpp).
+  // real (bvh_nodes' boxes), TrParams, TrTriangleAttr, TrTexture. Must equal the host's
+  // (device/code.hpp).
   std::vector<int> device_struct_sizes(bool use_double) {
     std::lock_guard<std::mutex> lock(mutex_);
     bool built = false;
