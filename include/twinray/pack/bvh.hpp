@@ -75,6 +75,17 @@ constexpr int kBins = 16;                    // SAH bins
 // slower (bench/twinray_bench.cpp, spheres_1e5/1e6 and mesh_1e4/1e6, costs 1, 1.5, 2, 3, 4
 // interleaved on the noisy 2-core machine; 4 rendered slower).
 constexpr double kTraversalCost = 2.0;
+// Scenes of spheres alone, fewer than kSmallSphereScene of them, split further, at a
+// traversal cost of 1: the CPU backend tests a leaf's spheres for a packet's rays side
+// by side, and over large spheres (hundreds of pixels each) smaller leaves spare those
+// tests for rays that only crossed the leaf's box. Against cost 2 (AMD EPYC, paired
+// A/B, same bits): spheres_1e3 0.88-0.91 of the frame in three runs, spheres_1e5 0.97;
+// spheres_1e6 0.94, 0.94 and 1.01 while its build took 1.4-1.55 times as long, and
+// the meshes rendered 2-8% slower, so those keep 2 (docs/performance.md).
+constexpr long long kSmallSphereScene = 1 << 17;
+inline double traversal_cost(long long n_spheres, long long n_triangles) {
+  return n_triangles == 0 && n_spheres < kSmallSphereScene ? 1.0 : kTraversalCost;
+}
 constexpr int kParallelMinPrims = 16384;  // smaller subtrees are built on the calling thread
 
 // The widths a BVH can have, and the fastest on each backend (measured with
@@ -351,9 +362,11 @@ int block_partition(std::vector<Elem>& v, int begin, int end, const IsLeft& is_l
 template <class Node, class R>
 struct Builder {
   std::vector<PrimRef<R>>& refs;
+  double traversal_cost;  // the SAH's cost of an inner node (traversal_cost())
   std::atomic<int> spare_threads;
 
-  explicit Builder(std::vector<PrimRef<R>>& r) : refs(r), spare_threads(thread_count() - 1) {}
+  Builder(std::vector<PrimRef<R>>& r, double traversal)
+      : refs(r), traversal_cost(traversal), spare_threads(thread_count() - 1) {}
 
   // Fills nodes[self] for refs[begin, end), whose bounds and centroid bounds are box
   // and cbox, and appends its descendants to `nodes`. A split hands each child its
@@ -537,7 +550,7 @@ struct Builder {
     double area = box.half_area();
     double leaf_cost = static_cast<double>(n);
     if (split < 0) return no_sah_split();  // every primitive fell in one bin
-    double split_cost = kTraversalCost + (area > 0 ? best_cost / area : static_cast<double>(n));
+    double split_cost = traversal_cost + (area > 0 ? best_cost / area : static_cast<double>(n));
     if (n <= kMaxLeafSize && leaf_cost <= split_cost) return -1;
     // The children's boxes are unions of their bins' boxes.
     child_box[0] = child_box[1] = Box();
@@ -606,7 +619,7 @@ BinaryBvh<T> build_binary(const std::vector<typename device::Code<T>::Sphere>& s
       r.box.hi[a] = round_up<T>(box.hi[a]);
     }
   });
-  detail::Builder<Node, T> builder(refs);
+  detail::Builder<Node, T> builder(refs, traversal_cost(n_spheres, n - n_spheres));
   Box root_box, root_cbox;
   detail::bounds_of(refs, 0, n, &root_box, &root_cbox);
   bvh.nodes.reserve(static_cast<size_t>(n));
