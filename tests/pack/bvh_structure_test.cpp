@@ -58,7 +58,7 @@ void prim_bounds(const PackedScene<T>& ps, int id, T lo[3], T hi[3]) {
 // exactly one leaf, empty slots empty and the stack bound kept.
 template <class T>
 void check_structure(const PackedScene<T>& ps) {
-  const int w = ps.bvh_width;
+  const int w = ps.bvh_width();
   REQUIRE(twinray::bvh::valid_width(w));
   const int n_nodes = ps.bvh_node_count();
   int n = static_cast<int>(ps.spheres.size() + ps.triangles.size());

@@ -44,7 +44,7 @@ twinray::Scene<T> scene_with_ties(uint32_t seed) {
 template <class T>
 twinray::PackedScene<T> shuffled(twinray::PackedScene<T> ps, uint32_t seed) {
   std::mt19937 rng(seed);
-  const int w = ps.bvh_width;
+  const int w = ps.bvh_width();
   int moved = 0;
   for (int node = 0; node < ps.bvh_node_count(); ++node) {
     T* box = ps.bvh_nodes.boxes(node);

@@ -80,7 +80,7 @@ Outcome check_packet(const twinray::PackedScene<T>& ps,
   if (coherent) {  // the walk alone, on a copy, to see whether it goes to the end
     auto copy = std::make_unique<typename Code<T>::BlockScratch>(*scratch);
     outcome =
-        K<T>::tr_packet_walk_wide(&ref, &copy->packet, mode, ps.bvh_width) ? kOneWalk : kGaveUp;
+        K<T>::tr_packet_walk_wide(&ref, &copy->packet, mode, ps.bvh_width()) ? kOneWalk : kGaveUp;
   }
   K<T>::tr_packet_bvh(&ref, &pk, coherent, mode);
   for (int r = 0; r < pk.n; ++r) {

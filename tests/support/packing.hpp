@@ -37,7 +37,6 @@ namespace test_support {
 // triangles go back to the linear loops.
 template <class T>
 twinray::PackedScene<T> without_bvh(twinray::PackedScene<T> ps) {
-  ps.bvh_width = 0;
   ps.bvh_nodes.clear();
   ps.bvh_prims.clear();
   ps.features &= ~unsigned(TR_F_BVH);

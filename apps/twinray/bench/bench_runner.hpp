@@ -185,7 +185,7 @@ Row run(const BenchScene<T>& b, twinray::Backend backend, const Config& config) 
     std::snprintf(buf, sizeof buf,
                   ": BVH%d %d nodes, %d leaves (%.2f primitives each, at most %d), depth %d, "
                   "stack %d",
-                  ps->bvh_width, st.nodes, st.leaves, double(ps->bvh_prims.size()) / st.leaves,
+                  ps->bvh_width(), st.nodes, st.leaves, double(ps->bvh_prims.size()) / st.leaves,
                   st.max_leaf, st.max_depth, st.stack_need);
     config.note(b.name + " " + row.precision + buf);
   }

@@ -57,8 +57,7 @@ struct PackedScene {
   std::vector<typename Code::Triangle> triangles;
   std::vector<typename Code::Plane> planes;
   std::vector<typename Code::Material> materials;
-  // The BVH (device/types.h, "The BVH"): bvh_width children per node; empty without one.
-  int bvh_width = 0;
+  // The BVH (device/types.h, "The BVH"): bvh_width() children per node; empty without one.
   bvh::WideNodes<T> bvh_nodes;
   std::vector<int> bvh_prims;
   // One per triangle, in the same order, when some mesh has normals or uvs; else empty.
@@ -84,6 +83,8 @@ struct PackedScene {
   }
 
   int bvh_node_count() const { return bvh_nodes.size(); }
+  // Children per BVH node (2, 4 or 8); 0 without a BVH.
+  int bvh_width() const { return bvh_nodes.empty() ? 0 : bvh_nodes.width(); }
 
   // Bytes the arrays hold (what an upload sends).
   size_t bytes() const {
@@ -294,13 +295,12 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
     ps.spheres.swap(spheres);
     ps.triangles.swap(triangles);
     ps.triangle_attrs.swap(attrs);
-    ps.bvh_width = tree.width();
     ps.bvh_nodes = std::move(tree.nodes);
   }
   if (!ps.spheres.empty()) ps.features |= TR_F_SPHERES;
   if (!ps.triangles.empty()) ps.features |= TR_F_TRIANGLES;
   if (!ps.planes.empty()) ps.features |= TR_F_PLANES;
-  if (!ps.bvh_nodes.empty()) ps.features |= bvh::width_feature(ps.bvh_width);
+  if (!ps.bvh_nodes.empty()) ps.features |= bvh::width_feature(ps.bvh_width());
   if (!ps.triangle_attrs.empty()) ps.features |= TR_F_ATTRIBUTES;
   for (const Material<T>& m : scene.materials)
     if (m.texture >= 0) ps.features |= TR_F_TEXTURES;
