@@ -1,16 +1,20 @@
 // Packets of rays (device/bvh_packet.h) give each ray exactly what its own walk gives.
 //  - Queries: tr_packet_bvh's nearest (t, primitive) and blocked flags equal
 //    tr_bvh_walk's, ray by ray, for coherent packets (one walk), packets that give up
-//    part way (a beam far wider than its rays), and incoherent ones (ray by ray); the
-//    packet walk itself at every width, tr_packet_bvh (which walks packets on 8-wide
-//    trees only) at every width too.
+//    part way (a beam far wider than its rays: the masked walk finishes them), and
+//    incoherent ones (ray by ray); the packet walk itself at every width, tr_packet_bvh
+//    (which walks packets on 8-wide trees only) at every width too.
+//  - The masked walk alone, at every width, for any subset of a packet's rays,
+//    coherent or not: each ray in the subset gets its own walk's answer, and the
+//    others are left as they were.
 //  - Images: the CPU backend, which traces 8x8 blocks a segment at a time
 //    (tr_render_block), gives the same bits as tr_render_pixel pixel by pixel: BVH
 //    widths 2, 4 and 8, float and double, perspective and orthographic, several jittered
 //    samples, a pixel rectangle whose blocks are cut at its edges, and more lights than
 //    the 32 whose shadow rays are traced in packets.
 //  - Shadow queries: tr_any_hit_packet's answers equal tr_any_hit's, in a scene whose
-//    shadow packets walk as one and in one past TR_SHADOW_PACKET_MAX_PRIMS.
+//    shadow packets walk as one and in one past TR_SHADOW_PACKET_MAX_PRIMS (the masked
+//    walk).
 #include <doctest/doctest.h>
 
 #include <cmath>
@@ -130,10 +134,79 @@ void check_queries(int width) {
   CHECK(outcomes[kRayByRay] > 0);
 }
 
+// The masked walk alone (tr_packet_walk_masked) on the packets check_queries makes,
+// for random subsets of their rays: each ray in the subset gets exactly its own walk's
+// answer (nearest t and primitive, or blocked), and the rays outside it keep their
+// values untouched.
+template <class T>
+void check_masked_walk(int width) {
+  const auto ps = packed(test_scene<T>(), width);
+  twinray::RenderOptions options;
+  const auto frame =
+      twinray::pack_frame(ps.summary(), {bvh_test::test_camera<T>(8, 8), {}, options});
+  const auto ref = frame.ref(ps);
+  std::mt19937 rng(23u);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  auto scratch = std::make_unique<typename Code<T>::BlockScratch>();
+  auto& pk = scratch->packet;
+  int answered = 0, untouched = 0, hits = 0;
+  for (int trial = 0; trial < 30; ++trial) {
+    const int kind = trial % 3;
+    const bool any_hit = (trial / 3) % 2 == 1;
+    const T tmax = any_hit ? T(5) : T(INFINITY);
+    const vec3<T> eye(T(u(rng)), T(-1 + 0.3 * u(rng)), T(6));
+    const vec3<T> target(T(3 * u(rng)), T(u(rng)), T(-2));
+    pk.n = trial % 5 == 4 ? 37 : TR_PACKET_MAX;  // a block cut at the image's edge, too
+    unsigned long long active = 0;
+    for (int r = 0; r < pk.n; ++r) {
+      const T a = T(0.01 * (r % 8)), b = T(0.01 * (r / 8));
+      if (kind == 0)
+        pk.ray[r] = ray<T>(eye, target - eye + vec3<T>(a, b, 0));
+      else if (kind == 1)
+        pk.ray[r] = ray<T>(vec3<T>(T(4 * u(rng)), T(1.5 * u(rng)), T(-3 + 2 * u(rng))),
+                           vec3<T>(T(-0.5), T(-0.6), T(0.4 + a)));
+      else
+        pk.ray[r] = ray<T>(eye, vec3<T>(T(u(rng)), T(u(rng)), T(u(rng))));
+      pk.t[r] = tmax;
+      pk.prim[r] = -1;
+      if (rng() % 4 != 0) active |= 1ull << r;  // about three rays in four
+    }
+    K<T>::tr_packet_begin(&pk);
+    const int mode = any_hit ? 1 : 0;
+    K<T>::tr_packet_walk_masked(&ref, &pk, active, mode, width);
+    for (int r = 0; r < pk.n; ++r) {
+      CAPTURE(trial);
+      CAPTURE(r);
+      if (!((active >> r) & 1ull)) {
+        CHECK(std::memcmp(&pk.t[r], &tmax, sizeof(T)) == 0);
+        CHECK(pk.prim[r] == -1);
+        ++untouched;
+        continue;
+      }
+      typename Code<T>::Nearest own;
+      own.t = tmax;
+      own.prim = -1;
+      const int blocked = K<T>::tr_bvh_walk(&ref, pk.ray[r], &own, mode);
+      if (any_hit) {
+        CHECK((pk.t[r] < T(0)) == (blocked != 0));
+        hits += blocked != 0;
+      } else {
+        CHECK(pk.prim[r] == own.prim);
+        CHECK(std::memcmp(&pk.t[r], &own.t, sizeof(T)) == 0);
+        hits += own.prim >= 0;
+      }
+      ++answered;
+    }
+  }
+  CHECK(untouched > 0);
+  CHECK(hits > 0);
+  CHECK(hits < answered);  // misses too
+}
+
 // Shadow queries, tr_any_hit_packet, give each ray what its own any-hit query gives: in a
 // scene of n_spheres small spheres, packets of rays from a small patch toward a light
-// (a block's shadow rays). Below TR_SHADOW_PACKET_MAX_PRIMS coherent packets walk the
-// BVH as one; above it they go ray by ray.
+// (a block's shadow rays). Below TR_SHADOW_PACKET_MAX_PRIMS coherent packets try
+// interval culling first; above it they take the masked walk at once.
 template <class T>
 void check_shadow_packets(int n_spheres) {
   auto scene = bvh_test::random_scene<T>(0, 0, 3u);  // materials, lights and the plane
@@ -237,6 +310,14 @@ TEST_CASE_TEMPLATE("packet queries give each ray what its own walk gives", T, fl
   for (int width : twinray::bvh::kWidths) {
     CAPTURE(width);
     check_queries<T>(width);
+  }
+}
+
+TEST_CASE_TEMPLATE("the masked walk gives each ray in its mask what its own walk gives", T, float,
+                   double) {
+  for (int width : twinray::bvh::kWidths) {
+    CAPTURE(width);
+    check_masked_walk<T>(width);
   }
 }
 

@@ -241,6 +241,45 @@ TR_FN_INLINE void tr_packet_sphere_lanes(const TrSceneRef* s, TrRayPacket* pk, i
   }
 }
 
+/* A leaf's primitives bvh_prims[first .. first + count) offered to the `entered` rays
+ * listed in rays[] (enter[r] set for each of them, clear for the rest of the packet):
+ * closest hit or any hit as in tr_packet_offer. A leaf's primitives go a ray per lane
+ * once a quarter of the packet entered it (a half, an eighth and always measured alike:
+ * docs/performance.md), on the host only (TR_PACKET_LANES); else ray by ray. */
+TR_FN_INLINE void tr_packet_leaf(const TrSceneRef* s, TrRayPacket* pk, int first, int count,
+                                 const int* enter, const int* rays, int entered, int any_hit) {
+  int lanes = TR_PACKET_LANES && entered * 4 >= pk->n;
+  for (int i = first; i < first + count; ++i) {
+    int prim = s->bvh_prims[i];
+    if (lanes) {
+      if (TR_HAS(TR_F_SPHERES) && prim < s->params->n_spheres)
+        tr_packet_sphere_lanes(s, pk, prim, enter, any_hit);
+      else if (TR_HAS(TR_F_TRIANGLES))
+        tr_packet_triangle_lanes(s, pk, prim, enter, any_hit);
+      continue;
+    }
+    /* Ray by ray, the offer keeps its branches: most tests miss, and the selects of
+     * tr_packet_offer made spheres_1e5 frames 7% slower here (docs/performance.md). */
+    for (int q = 0; q < entered; ++q) {
+      int r = rays[q];
+      if (any_hit) {
+        if (pk->t[r] < TR_R(0.0)) continue; /* blocked by an earlier primitive */
+        TrTriangleRay tri_ray = tr_packet_triangle_ray(pk, r);
+        real t = tr_primitive_t(s, prim, pk->ray[r], &tri_ray);
+        if (t > TR_R(0.0) && t < pk->t[r]) pk->t[r] = TR_R(-1.0);
+        continue;
+      }
+      TrNearest nearest;
+      nearest.t = pk->t[r];
+      nearest.prim = pk->prim[r];
+      TrTriangleRay tri_ray = tr_packet_triangle_ray(pk, r);
+      tr_offer_hit(&nearest, tr_primitive_t(s, prim, pk->ray[r], &tri_ray), prim);
+      pk->t[r] = nearest.t;
+      pk->prim[r] = nearest.prim;
+    }
+  }
+}
+
 /* The greatest of the packet's nearest distances, grown as the box test grows them. */
 TR_FN_INLINE real tr_packet_tmax_grown(const TrRayPacket* pk) {
   return tr_lanes_max(pk->t, pk->n) * tr_box_grow();
@@ -291,39 +330,7 @@ TR_FN_INLINE int tr_packet_walk_wide(const TrSceneRef* s, TrRayPacket* pk, int a
       if (leaf_tests >= 16 && leaf_entries < leaf_tests) return 0;
       if (entered == 0) continue;
       leaves_tested = 1;
-      /* A leaf's primitives go a ray per lane once a quarter of the packet entered it
-       * (a half, an eighth and always measured alike: docs/performance.md), on the
-       * host only (TR_PACKET_LANES). */
-      int lanes = TR_PACKET_LANES && entered * 4 >= pk->n;
-      for (int i = first[k]; i < first[k] + count[k]; ++i) {
-        int prim = s->bvh_prims[i];
-        if (lanes) {
-          if (TR_HAS(TR_F_SPHERES) && prim < s->params->n_spheres)
-            tr_packet_sphere_lanes(s, pk, prim, enter, any_hit);
-          else if (TR_HAS(TR_F_TRIANGLES))
-            tr_packet_triangle_lanes(s, pk, prim, enter, any_hit);
-          continue;
-        }
-        /* Ray by ray, the offer keeps its branches: most tests miss, and the selects of
-         * tr_packet_offer made spheres_1e5 frames 7% slower here (docs/performance.md). */
-        for (int q = 0; q < entered; ++q) {
-          int r = rays[q];
-          if (any_hit) {
-            if (pk->t[r] < TR_R(0.0)) continue; /* blocked by an earlier primitive */
-            TrTriangleRay tri_ray = tr_packet_triangle_ray(pk, r);
-            real t = tr_primitive_t(s, prim, pk->ray[r], &tri_ray);
-            if (t > TR_R(0.0) && t < pk->t[r]) pk->t[r] = TR_R(-1.0);
-            continue;
-          }
-          TrNearest nearest;
-          nearest.t = pk->t[r];
-          nearest.prim = pk->prim[r];
-          TrTriangleRay tri_ray = tr_packet_triangle_ray(pk, r);
-          tr_offer_hit(&nearest, tr_primitive_t(s, prim, pk->ray[r], &tri_ray), prim);
-          pk->t[r] = nearest.t;
-          pk->prim[r] = nearest.prim;
-        }
-      }
+      tr_packet_leaf(s, pk, first[k], count[k], enter, rays, entered, any_hit);
     }
     if (leaves_tested) {
       tmax_grown = tr_packet_tmax_grown(pk);
@@ -334,6 +341,128 @@ TR_FN_INLINE int tr_packet_walk_wide(const TrSceneRef* s, TrRayPacket* pk, int a
     index = next;
   }
   return 1;
+}
+
+/* Ray r's box-test view (tr_box_ray's values, from tr_packet_begin's arrays). */
+TR_FN_INLINE TrBoxRay tr_packet_box_ray(const TrRayPacket* pk, int r) {
+  TrBoxRay br;
+  br.o = TR_VEC3(pk->ox[r], pk->oy[r], pk->oz[r]);
+  br.inv_d = TR_VEC3(pk->ix[r], pk->iy[r], pk->iz[r]);
+  br.inv_d_far = TR_VEC3(pk->fx[r], pk->fy[r], pk->fz[r]);
+  br.rows = tr_slab_rows(br.inv_d);
+  return br;
+}
+
+/* Walks the W-wide BVH once for the rays of the packet in `active` (bit r: ray r;
+ * tr_packet_begin has run), coherent or not: the masked traversal of ray streams
+ * (Wald, Gribble, Boulos, Kensler, "SIMD Ray Stream Tracing", 2007; Fuetterling,
+ * Lojewski, Pfreundt, Ebert, "Efficient Ray Tracing Kernels for Modern CPU
+ * Architectures", JCGT 4(4), 2015). Each stack entry holds a node and the rays that
+ * entered it; at a node each of those rays takes its own box test (tr_ray_hits_boxes,
+ * with its own nearest hit so far), and child k goes on with the rays that entered it.
+ * A ray thus reaches every leaf that can hold its nearest hit (its box test culls only
+ * beyond its nearest hit so far, which never falls below the final one) and is
+ * offered only primitives of leaves it entered: the answers are tr_bvh_walk's, bit for
+ * bit (tr_offer_hit's order; any hit: blocked or not). What the rays share is the
+ * node: it is read once for all of them, and the order is chosen once. Inner children
+ * go nearest first by the least entry distance among their rays (closest hit), or in
+ * bit order (any hit, as tr_walk_next). Where a coherent packet's rays spread out over
+ * fine geometry (a block's rays over a 1e6-triangle mesh), interval culling
+ * (tr_packet_walk_wide) enters leaves none of them enter, while each ray alone waits
+ * on memory for every node it reads. */
+TR_FN_INLINE void tr_packet_walk_masked(const TrSceneRef* s, TrRayPacket* pk, tr_mask64 active,
+                                        int any_hit, int W) {
+  if (s->params->n_bvh_nodes <= 0) return;
+  int stack_node[TR_BVH_STACK_SIZE];
+  tr_mask64 stack_rays[TR_BVH_STACK_SIZE];
+  int enter[TR_PACKET_MAX], rays[TR_PACKET_MAX];
+  for (int r = 0; r < pk->n; ++r) enter[r] = 0;
+  real grow = tr_box_grow();
+  int top = 0;
+  int index = 0;
+  tr_mask64 live = active; /* any hit: the rays not blocked yet */
+  tr_mask64 node_rays = active;
+  for (;;) {
+    TR_GLOBAL const real* boxes = tr_bvh_node(s, index, W);
+    TR_GLOBAL const int* first = tr_bvh_node_links(boxes, W);
+    TR_GLOBAL const int* count = first + W;
+    tr_mask64 child_rays[TR_BVH_MAX_WIDTH];
+    real child_t[TR_BVH_MAX_WIDTH];
+    for (int k = 0; k < W; ++k) {
+      child_rays[k] = 0;
+      child_t[k] = TR_R(INFINITY);
+    }
+    unsigned entered_children = 0u;
+    for (tr_mask64 m = node_rays; m != 0; m &= m - 1) {
+      int r = TR_LOWEST_BIT64(m);
+      TrBoxRay br = tr_packet_box_ray(pk, r);
+      real t_entry[TR_BVH_MAX_WIDTH];
+      unsigned hits = tr_ray_hits_boxes(boxes, &br, pk->t[r] * grow, W, t_entry);
+      entered_children |= hits;
+      for (; hits != 0u; hits &= hits - 1u) {
+        int k = TR_LOWEST_BIT(hits);
+        child_rays[k] |= (tr_mask64)1 << r;
+        child_t[k] = t_entry[k] < child_t[k] ? t_entry[k] : child_t[k];
+      }
+    }
+    unsigned inner = 0u;
+    int leaves_tested = 0;
+    for (unsigned m = entered_children; m != 0u; m &= m - 1u) {
+      int k = TR_LOWEST_BIT(m);
+      if (count[k] <= 0) {
+        inner |= count[k] == 0 ? 1u << k : 0u;
+        continue;
+      }
+      int entered = 0;
+      for (tr_mask64 q = child_rays[k]; q != 0; q &= q - 1) rays[entered++] = TR_LOWEST_BIT64(q);
+      for (int q = 0; q < entered; ++q) enter[rays[q]] = 1;
+      tr_packet_leaf(s, pk, first[k], count[k], enter, rays, entered, any_hit);
+      for (int q = 0; q < entered; ++q) enter[rays[q]] = 0;
+      leaves_tested = 1;
+    }
+    if (any_hit && leaves_tested) {
+      for (tr_mask64 m = live; m != 0; m &= m - 1) {
+        int r = TR_LOWEST_BIT64(m);
+        if (pk->t[r] < TR_R(0.0)) live &= ~((tr_mask64)1 << r);
+      }
+      if (live == 0) break;
+    }
+    /* The next node: an inner child, the others pushed (nearest first for closest
+     * hits: pushed farthest first), else the top of the stack. */
+    int next = -1;
+    tr_mask64 next_rays = 0;
+    int n_inner = 0;
+    int order[TR_BVH_MAX_WIDTH];
+    for (unsigned m = inner; m != 0u; m &= m - 1u) {
+      int k = TR_LOWEST_BIT(m);
+      int j = n_inner++;
+      if (!any_hit)
+        for (; j > 0 && child_t[order[j - 1]] > child_t[k]; --j) order[j] = order[j - 1];
+      order[j] = k;
+    }
+    if (n_inner > 0) {
+      for (int j = n_inner - 1; j > 0; --j) {
+        if (top < TR_BVH_STACK_SIZE) {
+          stack_node[top] = first[order[j]];
+          stack_rays[top] = child_rays[order[j]];
+          ++top;
+        }
+      }
+      next = first[order[0]];
+      next_rays = child_rays[order[0]] & live;
+    }
+    while (next < 0 && top > 0) {
+      --top;
+      tr_mask64 popped = stack_rays[top] & live;
+      if (popped != 0) {
+        next = stack_node[top];
+        next_rays = popped;
+      }
+    }
+    if (next < 0) break;
+    index = next;
+    node_rays = next_rays;
+  }
 }
 
 /* The walks a packet's rays fall back on, one by one; out of line, so that the code
@@ -349,16 +478,40 @@ TR_FN_NOINLINE int tr_bvh_blocked(const TrSceneRef* s, const TrRay* ray, real tm
   return tr_bvh_walk(s, *ray, &limit, 1);
 }
 
+/* The most primitives in the BVH for which shadow packets try interval culling
+ * (tr_packet_walk_wide) before the masked walk. A block's shadow rays toward a light
+ * form a beam from its hits; over denser geometry the beam crosses more small leaves
+ * than its rays share. Measured with the masked walk behind it, trying interval culling
+ * first there made frames of mesh_1e6 and spheres_1e6 1.06 and 1.08 times as long
+ * (before the masked walk, ray by ray against packets: 0.91 and 0.96; about even at
+ * 3e5 primitives, packets ahead at 1e5; docs/performance.md). Either way the answers
+ * are the same. */
+#define TR_SHADOW_PACKET_MAX_PRIMS 524288
+
 /* The BVH part of a packet query (pk->t and pk->prim set, tr_packet_begin's answer in
- * coherent): one walk for a coherent packet on an 8-wide tree, else (or where the
- * packet gave up) one per ray. Packets walk only the 8-wide trees both backends build
- * for CPUs (bvh::kCpuWidth): each width is a copy of the walk in every instantiation
- * of the device code, and two more widths made a rendering translation unit compile
- * 40% longer. Closest hit: each ray's nearest (t, primitive) in pk->t and pk->prim.
- * Any hit: pk->t[r] < 0 where ray r is blocked. */
+ * coherent), on an 8-wide tree: a coherent packet walks with interval culling
+ * (tr_packet_walk_wide), and where that gives up or is skipped (shadow rays over dense
+ * geometry) the masked walk takes its unfinished rays (on the host,
+ * TR_PACKET_MASKED; on OpenCL they go ray by ray); an incoherent packet goes ray
+ * by ray. Its rays share few nodes (reflections off curved mirrors: 3.4 rays per node
+ * visit on spheres_1e6, against 18-20 for mesh_1e6's coherent packets), and the masked
+ * walk made spheres_1e6 frames 5% slower there. Packets walk only the 8-wide trees
+ * both backends build for CPUs (bvh::kCpuWidth): each width is a copy of the walks in
+ * every instantiation of the device code, and two more widths made a rendering
+ * translation unit compile 40% longer. Closest hit: each ray's nearest (t, primitive)
+ * in pk->t and pk->prim. Any hit: pk->t[r] < 0 where ray r is blocked. */
 TR_FN void tr_packet_bvh(const TrSceneRef* s, TrRayPacket* pk, int coherent, int any_hit) {
-  if (coherent) {
-    if (tr_use(s, TR_F_BVH8) && tr_packet_walk_wide(s, pk, any_hit, 8)) return;
+  if (coherent && tr_use(s, TR_F_BVH8)) {
+    int dense =
+        any_hit && s->params->n_spheres + s->params->n_triangles > TR_SHADOW_PACKET_MAX_PRIMS;
+    if (!dense && tr_packet_walk_wide(s, pk, any_hit, 8)) return;
+    if (TR_PACKET_MASKED) {
+      tr_mask64 active = 0;
+      for (int r = 0; r < pk->n; ++r)
+        if (pk->t[r] >= TR_R(0.0)) active |= (tr_mask64)1 << r;
+      tr_packet_walk_masked(s, pk, active, any_hit, 8);
+      return;
+    }
   }
   for (int r = 0; r < pk->n; ++r) {
     if (any_hit) {

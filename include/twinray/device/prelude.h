@@ -26,8 +26,16 @@
  *                       ray at a time (LLVM's loop vectorizer does not widen the tests'
  *                       float3 values), and the rays the leaf's box test dropped cost
  *                       as much as the rest (PoCL frames 1.1-1.8x slower)
+ *   TR_PACKET_MASKED    1 where a coherent packet that stops paying for interval culling
+ *                       finishes in the masked walk (bvh_packet.h): the host. 0 on OpenCL,
+ *                       where those rays go one by one as before: with the masked walk
+ *                       PoCL compiled the block kernel 10-25% longer (a cold first frame
+ *                       5.7-6.3 s -> 6.0-7.9 s) and its frames moved within the noise
  *   TR_LOWEST_BIT(m)    index of the lowest set bit of a nonzero unsigned int (an
  *                       integer builtin on both sides: exact, so parity is not at stake)
+ *   tr_mask64, TR_LOWEST_BIT64(m)
+ *                       a 64-bit unsigned integer (one bit per ray of a packet) and the
+ *                       index of its lowest set bit
  *
  * On the device, TR_FEATURES and TR_DOUBLE arrive as -D build options. On the host,
  * include/twinray/device/code.hpp includes the function headers inside
@@ -75,8 +83,11 @@ typedef float3 vec3;
   do {                 \
   } while (0)
 #define TR_LOWEST_BIT(m) (31 - (int)clz((m) & (0u - (m))))
+typedef ulong tr_mask64;
+#define TR_LOWEST_BIT64(m) (63 - (int)clz((m) & ((tr_mask64)0 - (m))))
 #define TR_SIMD_LOOP
 #define TR_PACKET_LANES 0
+#define TR_PACKET_MASKED 0
 #ifndef TR_FEATURES
 #error "TR_FEATURES (the Features mask) must be passed as a build option"
 #endif
@@ -102,12 +113,20 @@ typedef float3 vec3;
 #define TR_SIMD_LOOP
 #endif
 #define TR_PACKET_LANES 1
+#define TR_PACKET_MASKED 1
+namespace twinray {
+namespace device {
+typedef unsigned long long tr_mask64;
+}  // namespace device
+}  // namespace twinray
 #if defined(__GNUC__) || defined(__clang__)
 #define TR_LOWEST_BIT(m) __builtin_ctz(m)
+#define TR_LOWEST_BIT64(m) __builtin_ctzll(m)
 #else
 namespace twinray {
 namespace device {
-inline int lowest_bit(unsigned m) {
+template <class Bits>
+inline int lowest_bit(Bits m) {
   int i = 0;
   for (; !(m & 1u); m >>= 1) ++i;
   return i;
@@ -115,6 +134,7 @@ inline int lowest_bit(unsigned m) {
 }  // namespace device
 }  // namespace twinray
 #define TR_LOWEST_BIT(m) ::twinray::device::lowest_bit(m)
+#define TR_LOWEST_BIT64(m) ::twinray::device::lowest_bit(m)
 #endif
 namespace twinray {
 namespace device {

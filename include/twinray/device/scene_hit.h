@@ -159,13 +159,6 @@ TR_FN_OUTLINE void tr_closest_hit_packet(const TrSceneRef* s, TrRayPacket* pk, T
   }
 }
 
-/* The most primitives in the BVH for which shadow rays walk it as a packet. A block's
- * shadow rays toward a light form a beam from its hits; over denser geometry the beam
- * crosses more small leaves than its rays share, and ray by ray was faster: frames of
- * mesh_1e6 and spheres_1e6 0.91 and 0.96 times as long, about even at 3e5 primitives,
- * packets ahead at 1e5 (docs/performance.md). Either way the answers are the same. */
-#define TR_SHADOW_PACKET_MAX_PRIMS 524288
-
 /* tr_any_hit for the packet's rays, ray r's tmax in pk->t[r]: blocked[r]. */
 TR_FN_OUTLINE void tr_any_hit_packet(const TrSceneRef* s, TrRayPacket* pk, int* blocked) {
   if (!tr_use(s, TR_F_BVH)) {
@@ -174,8 +167,7 @@ TR_FN_OUTLINE void tr_any_hit_packet(const TrSceneRef* s, TrRayPacket* pk, int* 
   }
   for (int r = 0; r < pk->n; ++r) pk->prim[r] = -1;
   int coherent = tr_packet_begin(pk); /* also the arrays tr_packet_planes reads */
-  int dense = s->params->n_spheres + s->params->n_triangles > TR_SHADOW_PACKET_MAX_PRIMS;
-  tr_packet_bvh(s, pk, coherent && !dense, 1);
+  tr_packet_bvh(s, pk, coherent, 1);
   tr_packet_planes(s, pk, 1);
   for (int r = 0; r < pk->n; ++r) {
     TR_COUNT_RAY();
