@@ -60,6 +60,47 @@ typename Code<T>::Ray ray(vec3<T> o, vec3<T> d) {
 
 enum Outcome { kOneWalk, kGaveUp, kRayByRay };
 
+// The rays of a test packet, of one of three kinds: 0, camera rays (one origin,
+// directions a few pixels apart); 1, origins spread over the whole scene, nearly
+// parallel; 2, all directions (not coherent).
+template <class T>
+std::vector<typename Code<T>::Ray> test_rays(int kind, int n, std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const vec3<T> eye(T(u(rng)), T(-1 + 0.3 * u(rng)), T(6));
+  const vec3<T> target(T(3 * u(rng)), T(u(rng)), T(-2));
+  std::vector<typename Code<T>::Ray> rays;
+  for (int i = 0; i < n; ++i) {
+    const T a = T(0.01 * (i % 8)), b = T(0.01 * (i / 8));
+    if (kind == 0)
+      rays.push_back(ray<T>(eye, target - eye + vec3<T>(a, b, 0)));
+    else if (kind == 1)
+      rays.push_back(ray<T>(vec3<T>(T(4 * u(rng)), T(1.5 * u(rng)), T(-3 + 2 * u(rng))),
+                            vec3<T>(T(-0.5), T(-0.6), T(0.4 + a))));
+    else
+      rays.push_back(ray<T>(eye, vec3<T>(T(u(rng)), T(u(rng)), T(u(rng)))));
+  }
+  return rays;
+}
+
+// Checks that ray r of the packet holds what its own walk (tr_bvh_walk, from tmax)
+// finds: the same nearest t and primitive, or the same blocked flag. Returns whether
+// that walk found a hit (or a blocker).
+template <class T, class Packet>
+bool check_own_walk(const typename Code<T>::SceneRef& ref, const Packet& pk, int r, T tmax,
+                    bool any_hit) {
+  typename Code<T>::Nearest own;
+  own.t = tmax;
+  own.prim = -1;
+  const int blocked = K<T>::tr_bvh_walk(&ref, pk.ray[r], &own, any_hit ? 1 : 0);
+  if (any_hit) {
+    CHECK((pk.t[r] < T(0)) == (blocked != 0));
+    return blocked != 0;
+  }
+  CHECK(pk.prim[r] == own.prim);
+  CHECK(std::memcmp(&pk.t[r], &own.t, sizeof(T)) == 0);
+  return own.prim >= 0;
+}
+
 // Runs the packet query and each ray's own walk, and checks they agree ray by ray.
 // Returns how the packet was walked.
 template <class T>
@@ -89,16 +130,7 @@ Outcome check_packet(const twinray::PackedScene<T>& ps,
   K<T>::tr_packet_bvh(&ref, &pk, coherent, mode);
   for (int r = 0; r < pk.n; ++r) {
     CAPTURE(r);
-    typename Code<T>::Nearest own;
-    own.t = tmax;
-    own.prim = -1;
-    const int blocked = K<T>::tr_bvh_walk(&ref, pk.ray[r], &own, mode);
-    if (any_hit) {
-      CHECK((pk.t[r] < T(0)) == (blocked != 0));
-    } else {
-      CHECK(pk.prim[r] == own.prim);
-      CHECK(std::memcmp(&pk.t[r], &own.t, sizeof(T)) == 0);
-    }
+    check_own_walk(ref, pk, r, tmax, any_hit);
   }
   return outcome;
 }
@@ -107,23 +139,9 @@ template <class T>
 void check_queries(int width) {
   const auto ps = packed(test_scene<T>(), width);
   std::mt19937 rng(11u);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
   int outcomes[3] = {0, 0, 0};
   for (int trial = 0; trial < 60; ++trial) {
-    std::vector<typename Code<T>::Ray> rays;
-    const int kind = trial % 3;
-    const vec3<T> eye(T(u(rng)), T(-1 + 0.3 * u(rng)), T(6));
-    const vec3<T> target(T(3 * u(rng)), T(u(rng)), T(-2));
-    for (int i = 0; i < 64; ++i) {
-      const T a = T(0.01 * (i % 8)), b = T(0.01 * (i / 8));
-      if (kind == 0)  // camera rays: one origin, directions a few pixels apart
-        rays.push_back(ray<T>(eye, target - eye + vec3<T>(a, b, 0)));
-      else if (kind == 1)  // origins spread over the whole scene, nearly parallel
-        rays.push_back(ray<T>(vec3<T>(T(4 * u(rng)), T(1.5 * u(rng)), T(-3 + 2 * u(rng))),
-                              vec3<T>(T(-0.5), T(-0.6), T(0.4 + a))));
-      else  // all directions: not coherent
-        rays.push_back(ray<T>(eye, vec3<T>(T(u(rng)), T(u(rng)), T(u(rng)))));
-    }
+    const auto rays = test_rays<T>(trial % 3, 64, rng);
     for (bool any_hit : {false, true}) ++outcomes[check_packet(ps, rays, any_hit)];
   }
   CAPTURE(outcomes[kOneWalk]);
@@ -146,34 +164,24 @@ void check_masked_walk(int width) {
       twinray::pack_frame(ps.summary(), {bvh_test::test_camera<T>(8, 8), {}, options});
   const auto ref = frame.ref(ps);
   std::mt19937 rng(23u);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
   auto scratch = std::make_unique<typename Code<T>::BlockScratch>();
   auto& pk = scratch->packet;
   int answered = 0, untouched = 0, hits = 0;
   for (int trial = 0; trial < 30; ++trial) {
-    const int kind = trial % 3;
     const bool any_hit = (trial / 3) % 2 == 1;
     const T tmax = any_hit ? T(5) : T(INFINITY);
-    const vec3<T> eye(T(u(rng)), T(-1 + 0.3 * u(rng)), T(6));
-    const vec3<T> target(T(3 * u(rng)), T(u(rng)), T(-2));
-    pk.n = trial % 5 == 4 ? 37 : TR_PACKET_MAX;  // a block cut at the image's edge, too
+    // A block cut at the image's edge, too.
+    const auto rays = test_rays<T>(trial % 3, trial % 5 == 4 ? 37 : TR_PACKET_MAX, rng);
+    pk.n = static_cast<int>(rays.size());
     unsigned long long active = 0;
     for (int r = 0; r < pk.n; ++r) {
-      const T a = T(0.01 * (r % 8)), b = T(0.01 * (r / 8));
-      if (kind == 0)
-        pk.ray[r] = ray<T>(eye, target - eye + vec3<T>(a, b, 0));
-      else if (kind == 1)
-        pk.ray[r] = ray<T>(vec3<T>(T(4 * u(rng)), T(1.5 * u(rng)), T(-3 + 2 * u(rng))),
-                           vec3<T>(T(-0.5), T(-0.6), T(0.4 + a)));
-      else
-        pk.ray[r] = ray<T>(eye, vec3<T>(T(u(rng)), T(u(rng)), T(u(rng))));
+      pk.ray[r] = rays[static_cast<size_t>(r)];
       pk.t[r] = tmax;
       pk.prim[r] = -1;
       if (rng() % 4 != 0) active |= 1ull << r;  // about three rays in four
     }
     K<T>::tr_packet_begin(&pk);
-    const int mode = any_hit ? 1 : 0;
-    K<T>::tr_packet_walk_masked(&ref, &pk, active, mode, width);
+    K<T>::tr_packet_walk_masked(&ref, &pk, active, any_hit ? 1 : 0, width);
     for (int r = 0; r < pk.n; ++r) {
       CAPTURE(trial);
       CAPTURE(r);
@@ -183,18 +191,7 @@ void check_masked_walk(int width) {
         ++untouched;
         continue;
       }
-      typename Code<T>::Nearest own;
-      own.t = tmax;
-      own.prim = -1;
-      const int blocked = K<T>::tr_bvh_walk(&ref, pk.ray[r], &own, mode);
-      if (any_hit) {
-        CHECK((pk.t[r] < T(0)) == (blocked != 0));
-        hits += blocked != 0;
-      } else {
-        CHECK(pk.prim[r] == own.prim);
-        CHECK(std::memcmp(&pk.t[r], &own.t, sizeof(T)) == 0);
-        hits += own.prim >= 0;
-      }
+      hits += check_own_walk(ref, pk, r, tmax, any_hit);
       ++answered;
     }
   }
