@@ -61,7 +61,12 @@ int run_info() {
               << "      version:    " << d.version << ", driver " << d.driver_version << "\n"
               << "      double:     " << yes_no(d.has_fp64) << "\n"
               << "      memory:     " << (d.global_mem >> 20) << " MiB, largest allocation "
-              << (d.max_alloc >> 20) << " MiB\n";
+              << (d.max_alloc >> 20) << " MiB\n"
+              << "      binaries:   "
+              << (twinray::opencl::keeps_binaries(d)
+                      ? "kept in the program cache"
+                      : "not kept (PoCL's own kernel cache holds the programs)")
+              << "\n";
   }
 #endif
   return kExitOk;

@@ -7,6 +7,7 @@
 // the process, and on disk as program binaries saved after their first launch (PoCL
 // generates the code for a work-group size at the first launch, so it is in them).
 // The disk key is the device, the driver version, the options and the whole source.
+// On PoCL with its own kernel cache on, twinray keeps no binaries (keeps_binaries).
 #pragma once
 
 #include <chrono>
@@ -68,6 +69,23 @@ inline std::string program_source() {
   return source;
 }
 
+// Whether twinray keeps program binaries on disk for this device: everywhere but on
+// PoCL with its kernel cache on (POCL_KERNEL_CACHE unset, or set to a value starting
+// with 1, as PoCL reads it). PoCL keeps the program and every work-group function it
+// generates under POCL_CACHE_DIR already, and handing out a binary
+// (CL_PROGRAM_BINARIES) makes it compile a generic work-group function for each
+// kernel first: 2.6-2.9 s of a 6.2-6.8 s cold first frame of torus.json on a 2-vCPU
+// AMD EPYC. Without the copy a warm process builds from PoCL's cache in 50-100 ms
+// instead of loading twinray's binary in 20 ms (docs/performance.md).
+// pocl_kernel_cache: the value of POCL_KERNEL_CACHE, or null where it is unset.
+inline bool keeps_binaries(const DeviceInfo& device, const char* pocl_kernel_cache) {
+  if (device.platform_version.find("PoCL") == std::string::npos) return true;
+  return pocl_kernel_cache != nullptr && pocl_kernel_cache[0] != '1';
+}
+inline bool keeps_binaries(const DeviceInfo& device) {
+  return keeps_binaries(device, std::getenv("POCL_KERNEL_CACHE"));
+}
+
 // The built programs of one context. Not thread-safe: the Context's mutex guards it.
 class ProgramCache {
  public:
@@ -96,7 +114,7 @@ class ProgramCache {
     auto t0 = std::chrono::steady_clock::now();
     Entry entry;
     const std::string source_text = program_source();
-    std::string dir = cache_dir();
+    std::string dir = keeps_binaries(info_) ? cache_dir() : std::string();
     if (!dir.empty()) {
       std::string key = info_.platform_version + "\n" + info_.name + "\n" + info_.driver_version +
                         "\n" + options + "\n" + source_text;
