@@ -58,6 +58,11 @@ TEST_CASE_TEMPLATE("a spheres-only scene gets a kernel without triangle and plan
   // every TR_HAS(TR_F_TRIANGLES) / TR_HAS(TR_F_PLANES) block is dead code in it.
   CHECK((std::strtoul(mask, nullptr, 16) & (TR_F_TRIANGLES | TR_F_PLANES)) == 0);
   CHECK(specialized.find("fast") == std::string::npos);  // never fast-math
+  // A render with specialize on builds its program for exactly its frame's mask, which
+  // then reads no feature bits at run time; the generic program (TR_F_ALL) does.
+  CHECK(specialized.find("TR_EXACT_FEATURES") == std::string::npos);
+  CHECK(opencl::build_options(ctx.info(), features, sizeof(T) == 8, TR_ENTRY_ALL, true)
+            .find(" -DTR_EXACT_FEATURES") != std::string::npos);
 
   RenderInfo spec_info, generic_info;
   options.backend = Backend::OpenCL;

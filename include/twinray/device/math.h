@@ -129,5 +129,12 @@ TR_FN real tr_pow_unit(real x, real p) {
 
 /* Is a feature compiled in (TR_HAS) and switched on for this frame? */
 TR_FN int tr_use(const TrSceneRef* s, unsigned bit) {
+#ifdef TR_EXACT_FEATURES
+  /* The program was built for this frame's mask (OpenCL, opencl::build_options): its
+   * bits are the frame's, and what a clear bit guards is left out of the code. */
+  (void)s;
+  return TR_HAS(bit);
+#else
   return TR_HAS(bit) && (((unsigned)s->params->features & bit) != 0u);
+#endif
 }

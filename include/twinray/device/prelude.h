@@ -37,8 +37,10 @@
  *                       a 64-bit unsigned integer (one bit per ray of a packet) and the
  *                       index of its lowest set bit
  *
- * On the device, TR_FEATURES and TR_DOUBLE arrive as -D build options. On the host,
- * include/twinray/device/code.hpp includes the function headers inside
+ * On the device, TR_FEATURES and TR_DOUBLE arrive as -D build options, and
+ * TR_EXACT_FEATURES where the program renders only frames of that very mask (tr_use,
+ * math.h).
+ * On the host, include/twinray/device/code.hpp includes the function headers inside
  * `template <unsigned TR_FEATURES> struct Kernel`, so the same TR_HAS text is a
  * template parameter test there, and includes them once per precision with its
  * own `real`/`vec3` typedefs.

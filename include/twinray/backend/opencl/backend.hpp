@@ -127,7 +127,8 @@ class OpenCLBackend final : public RenderBackend<T> {
                              : renders_blocks()                         ? TR_ENTRY_BLOCKS
                                                                         : TR_ENTRY_RENDER;
     ProgramCache::Entry& program = ctx_.programs().get(
-        build_options(dev, features, sizeof(T) == 8, entry_points), &built_now, &build_ms);
+        build_options(dev, features, sizeof(T) == 8, entry_points, request.options.specialize),
+        &built_now, &build_ms);
 
     const auto t0 = clock::now();
     const bool uploading = pending_ != nullptr;
