@@ -14,6 +14,7 @@
 #include <twinray/twinray.hpp>
 
 #include "bvh_scenes.hpp"
+#include "support/page_flags.hpp"
 #include "support/packing.hpp"
 
 namespace {
@@ -225,6 +226,20 @@ TEST_CASE("bvh: the build does not depend on the thread count") {
   CHECK(a.bvh_nodes == c.bvh_nodes);
 }
 
+TEST_CASE("bvh: a large scene's primitives and nodes ask for huge pages") {
+  if (!twinray::detail::kMapsHugePages || !twinray_test::page_flags_known()) {
+    MESSAGE("skipped: no transparent huge pages or no /proc/self/smaps here");
+    return;
+  }
+  // 60000 triangles: 2.6 MB of them, and more than 2 MiB of 8-wide nodes reserved.
+  auto ps = pack_with_bvh(bvh_test::random_scene<float>(0, 60000, 5u, false), 0, 8);
+  REQUIRE(ps.triangles.size() * sizeof(ps.triangles[0]) >= twinray::kHugePageBytes);
+  CHECK(twinray_test::advised_huge(ps.triangles.data()));
+  CHECK(twinray_test::advised_huge(ps.bvh_nodes.data()));
+  // A small array stays on the heap.
+  CHECK_FALSE(twinray_test::advised_huge(ps.materials.data()));
+}
+
 TEST_CASE("bvh: depth stays within the stack on degenerate input") {
   using vec3 = glm::vec<3, double>;
   // Centers at +-20^i: each SAH split can peel off only the outermost sphere, deeper
@@ -315,7 +330,7 @@ TEST_CASE("bvh: pack builds one from the threshold on, and not below it") {
 // binary level down. The collapse must then fall back to fixed levels.
 TEST_CASE("bvh: a greedy tree that would overflow the stack is collapsed at fixed levels") {
   using Node = twinray::bvh::BinaryNode<float>;
-  std::vector<Node> nodes;
+  twinray::LargeVector<Node> nodes;
   auto box = [](float size) {
     Node n{{0, 0, 0, size, size, size}, 0, 1};  // a leaf until split
     return n;

@@ -68,8 +68,9 @@ twinray::PackedScene<T> pack_flat(const Scene<T>& scene, int threads) {
   return ps;
 }
 
-template <class V>
-bool same_bytes(const V& a, const V& b) {
+template <class A, class B>
+bool same_bytes(const A& a, const B& b) {
+  static_assert(sizeof a[0] == sizeof b[0], "arrays of one element type");
   return a.size() == b.size() &&
          (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof a[0]) == 0);
 }

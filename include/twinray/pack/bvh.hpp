@@ -44,6 +44,7 @@
 #include <type_traits>
 #include <vector>
 
+#include <twinray/core/large_array.hpp>
 #include <twinray/core/parallel.hpp>
 #include <twinray/device/code.hpp>
 
@@ -168,7 +169,7 @@ class WideNodes {
            static_cast<size_t>(i) * node_bytes(width_);
   }
 
-  std::vector<Line> lines_;
+  LargeVector<Line> lines_;
   int width_ = 0;
   int nodes_ = 0;
 };
@@ -281,7 +282,7 @@ namespace detail {
 
 // Centroid bounds of refs[begin, end), grown in R and converted once (exactly).
 template <class R>
-Box centroid_bounds(const std::vector<PrimRef<R>>& refs, int begin, int end) {
+Box centroid_bounds(const LargeVector<PrimRef<R>>& refs, int begin, int end) {
   BasicBox<R> cb;
   for (int i = begin; i < end; ++i) {
     R c[3];
@@ -295,7 +296,7 @@ Box centroid_bounds(const std::vector<PrimRef<R>>& refs, int begin, int end) {
 
 // Bounds and centroid bounds of refs[begin, end), in one pass.
 template <class R>
-void bounds_of(const std::vector<PrimRef<R>>& refs, int begin, int end, Box* box, Box* cbox) {
+void bounds_of(const LargeVector<PrimRef<R>>& refs, int begin, int end, Box* box, Box* cbox) {
   BasicBox<R> b, cb;  // grown in R, converted once (exactly) at the end
   for (int i = begin; i < end; ++i) {
     R c[3];
@@ -316,8 +317,8 @@ void bounds_of(const std::vector<PrimRef<R>>& refs, int begin, int end, Box* box
 // predicate, then swapped pairwise. On primitives in random order a plain Hoare loop
 // mispredicts every other element; with this one the binary build of 1e6 spheres in
 // random order took 290 ms instead of 350-370 on 2 threads (docs/performance.md).
-template <class Elem, class IsLeft>
-int block_partition(std::vector<Elem>& v, int begin, int end, const IsLeft& is_left) {
+template <class Array, class IsLeft>
+int block_partition(Array& v, int begin, int end, const IsLeft& is_left) {
   constexpr int kBlock = 64;
   unsigned char wrong_left[kBlock], wrong_right[kBlock];
   int n_left = 0, n_right = 0, start_left = 0, start_right = 0;
@@ -361,18 +362,18 @@ int block_partition(std::vector<Elem>& v, int begin, int end, const IsLeft& is_l
 
 template <class Node, class R>
 struct Builder {
-  std::vector<PrimRef<R>>& refs;
+  LargeVector<PrimRef<R>>& refs;
   double traversal_cost;  // the SAH's cost of an inner node (traversal_cost())
   std::atomic<int> spare_threads;
 
-  Builder(std::vector<PrimRef<R>>& r, double traversal)
+  Builder(LargeVector<PrimRef<R>>& r, double traversal)
       : refs(r), traversal_cost(traversal), spare_threads(thread_count() - 1) {}
 
   // Fills nodes[self] for refs[begin, end), whose bounds and centroid bounds are box
   // and cbox, and appends its descendants to `nodes`. A split hands each child its
   // bounds (from the bins and the partition pass), so no level re-reads its
   // primitives just to bound them.
-  void build(std::vector<Node>& nodes, int self, int begin, int end, int depth, const Box& box,
+  void build(LargeVector<Node>& nodes, int self, int begin, int end, int depth, const Box& box,
              const Box& cbox) {
     int n = end - begin;
     set_box(nodes[self], box);
@@ -409,7 +410,7 @@ struct Builder {
     // The two subtrees side by side (parallel_for with one index each), each into its
     // own array, spliced in left then right, the order a serial build writes them in,
     // so the result does not depend on the thread count.
-    std::vector<Node> sub[2] = {std::vector<Node>(1), std::vector<Node>(1)};
+    LargeVector<Node> sub[2] = {LargeVector<Node>(1), LargeVector<Node>(1)};
     parallel_for(2, 1, [&](int side) {
       // As many nodes as primitives, as for the whole tree (build_binary): growing by
       // doubling copied each half's nodes and touched fresh pages again.
@@ -423,7 +424,7 @@ struct Builder {
   }
 
   // Moves a subtree built on its own (root at sub[0]) to nodes[slot] and the end.
-  static void splice(std::vector<Node>& nodes, int slot, const std::vector<Node>& sub) {
+  static void splice(LargeVector<Node>& nodes, int slot, const LargeVector<Node>& sub) {
     int offset = static_cast<int>(nodes.size()) - 1;  // sub[i] lands at offset + i, i >= 1
     auto relocate = [offset](Node node) {
       if (node.count <= 0) node.first += offset;
@@ -571,8 +572,8 @@ struct Builder {
 // 0 .. n_spheres - 1, then triangles).
 template <class T>
 struct BinaryBvh {
-  std::vector<BinaryNode<T>> nodes;
-  std::vector<int> order;
+  LargeVector<BinaryNode<T>> nodes;
+  LargeVector<int> order;
 };
 
 // A built BVH as the device code reads it (device/types.h, "The BVH"): `width`
@@ -581,7 +582,7 @@ struct BinaryBvh {
 template <class T>
 struct Bvh {
   WideNodes<T> nodes;
-  std::vector<int> order;
+  LargeVector<int> order;
   int width() const { return nodes.width(); }
   int node_count() const { return nodes.size(); }
 };
@@ -590,14 +591,14 @@ struct Bvh {
 // Runs on the threads of parallel_for (core/parallel.hpp); the result does not depend
 // on how many.
 template <class T>
-BinaryBvh<T> build_binary(const std::vector<typename device::Code<T>::Sphere>& spheres,
-                          const std::vector<typename device::Code<T>::Triangle>& triangles) {
+BinaryBvh<T> build_binary(const LargeVector<typename device::Code<T>::Sphere>& spheres,
+                          const LargeVector<typename device::Code<T>::Triangle>& triangles) {
   using Node = BinaryNode<T>;
   const int n_spheres = static_cast<int>(spheres.size());
   const int n = n_spheres + static_cast<int>(triangles.size());
   BinaryBvh<T> bvh;
   if (n == 0) return bvh;
-  std::vector<PrimRef<T>> refs(static_cast<size_t>(n));
+  LargeVector<PrimRef<T>> refs(static_cast<size_t>(n));
   parallel_for(n, 4096, [&](int i) {
     PrimRef<T>& r = refs[static_cast<size_t>(i)];
     r.id = i;
@@ -647,7 +648,7 @@ double half_area(const BinaryNode<T>& node) {
 // The binary nodes the w-wide node for binary node b holds, in left-to-right order (see
 // the collapse at the top of this file); returns how many. A leaf b stands for itself.
 template <class T>
-int gather_children(const std::vector<BinaryNode<T>>& binary, int b, int w, Collapse how,
+int gather_children(const LargeVector<BinaryNode<T>>& binary, int b, int w, Collapse how,
                     int* children) {
   children[0] = b;
   int n = 1;
@@ -693,7 +694,7 @@ int gather_children(const std::vector<BinaryNode<T>>& binary, int b, int w, Coll
 // (inner children - 1) here, plus the most of any inner child. Recursion depth is
 // bounded by kMaxDepth.
 template <class T>
-int collapse_node(const std::vector<BinaryNode<T>>& binary, int b, Collapse how, Bvh<T>& out,
+int collapse_node(const LargeVector<BinaryNode<T>>& binary, int b, Collapse how, Bvh<T>& out,
                   int* stack) {
   const int w = out.width();
   const int self = out.nodes.push();
@@ -759,8 +760,8 @@ Bvh<T> collapse(const BinaryBvh<T>& binary, int width,
 
 // Builds the `width`-wide BVH of these spheres and triangles (build_binary, collapse).
 template <class T>
-Bvh<T> build(const std::vector<typename device::Code<T>::Sphere>& spheres,
-             const std::vector<typename device::Code<T>::Triangle>& triangles, int width) {
+Bvh<T> build(const LargeVector<typename device::Code<T>::Sphere>& spheres,
+             const LargeVector<typename device::Code<T>::Triangle>& triangles, int width) {
   BinaryBvh<T> binary = build_binary<T>(spheres, triangles);
   Bvh<T> bvh = collapse(binary, width);
   bvh.order = std::move(binary.order);
@@ -769,7 +770,7 @@ Bvh<T> build(const std::vector<typename device::Code<T>::Sphere>& spheres,
 
 // Depth, node and leaf counts of the binary tree (for tests).
 template <class T>
-Stats stats(const std::vector<BinaryNode<T>>& nodes) {
+Stats stats(const LargeVector<BinaryNode<T>>& nodes) {
   Stats st;
   if (nodes.empty()) return st;
   st.nodes = static_cast<int>(nodes.size());

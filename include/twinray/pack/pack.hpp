@@ -16,6 +16,7 @@
 #include <vector>
 #include <glm/geometric.hpp>
 
+#include <twinray/core/large_array.hpp>
 #include <twinray/core/options.hpp>
 #include <twinray/core/parallel.hpp>
 #include <twinray/device/code.hpp>
@@ -53,17 +54,17 @@ struct SceneSummary {
 template <class T>
 struct PackedScene {
   using Code = device::Code<T>;
-  std::vector<typename Code::Sphere> spheres;
-  std::vector<typename Code::Triangle> triangles;
-  std::vector<typename Code::Plane> planes;
-  std::vector<typename Code::Material> materials;
+  LargeVector<typename Code::Sphere> spheres;
+  LargeVector<typename Code::Triangle> triangles;
+  LargeVector<typename Code::Plane> planes;
+  LargeVector<typename Code::Material> materials;
   // The BVH (device/types.h, "The BVH"): bvh_width() children per node; empty without one.
   bvh::WideNodes<T> bvh_nodes;
-  std::vector<int> bvh_prims;
+  LargeVector<int> bvh_prims;
   // One per triangle, in the same order, when some mesh has normals or uvs; else empty.
-  std::vector<typename Code::TriangleAttr> triangle_attrs;
-  std::vector<typename Code::Texture> textures;
-  std::vector<T> texels;  // every texture's linear RGB, one after the other
+  LargeVector<typename Code::TriangleAttr> triangle_attrs;
+  LargeVector<typename Code::Texture> textures;
+  LargeVector<T> texels;  // every texture's linear RGB, one after the other
   glm::vec<3, T> background{T(0), T(0), T(0)};
   // Bits of the geometry: TR_F_SPHERES, TR_F_TRIANGLES, TR_F_PLANES, TR_F_BVH2/4/8,
   // TR_F_ATTRIBUTES, TR_F_TEXTURES.
@@ -278,9 +279,9 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
     int sphere_at = 0, triangle_at = 0;
     for (size_t i = 0; i < tree.order.size(); ++i)
       ps.bvh_prims[i] = tree.order[i] < n_spheres ? sphere_at++ : n_spheres + triangle_at++;
-    std::vector<typename device::Code<T>::Sphere> spheres(ps.spheres.size());
-    std::vector<typename device::Code<T>::Triangle> triangles(ps.triangles.size());
-    std::vector<typename device::Code<T>::TriangleAttr> attrs(ps.triangle_attrs.size());
+    LargeVector<typename device::Code<T>::Sphere> spheres(ps.spheres.size());
+    LargeVector<typename device::Code<T>::Triangle> triangles(ps.triangles.size());
+    LargeVector<typename device::Code<T>::TriangleAttr> attrs(ps.triangle_attrs.size());
     parallel_for(static_cast<int>(tree.order.size()), 8192, [&](int i) {
       const int id = tree.order[static_cast<size_t>(i)];
       const size_t to = static_cast<size_t>(ps.bvh_prims[static_cast<size_t>(i)]);
