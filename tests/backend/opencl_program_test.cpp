@@ -73,6 +73,24 @@ TEST_CASE_TEMPLATE("a spheres-only scene gets a kernel without triangle and plan
   CHECK(spec_info.features == features);
   CHECK(generic_info.features == TR_F_ALL);
   CHECK(test::differing_values(spec, generic) == 0);
+  // The backend built the specialized render's program with the exact-features option,
+  // and no generic (TR_F_ALL) program with it.
+  {
+    char all[16];
+    std::snprintf(all, sizeof all, "0x%03xu", static_cast<unsigned>(TR_F_ALL));
+    std::lock_guard<std::mutex> lock(ctx.mutex());
+    bool exact_specialized = false, exact_generic = false;
+    for (std::string built : ctx.programs().built_options()) {
+      built += ' ';  // so that a mask at the end is followed by a space too
+      const bool exact = built.find(" -DTR_EXACT_FEATURES") != std::string::npos;
+      if (built.find(std::string("-DTR_FEATURES=") + mask + " ") != std::string::npos)
+        exact_specialized = exact_specialized || exact;
+      if (built.find(std::string("-DTR_FEATURES=") + all + " ") != std::string::npos)
+        exact_generic = exact_generic || exact;
+    }
+    CHECK(exact_specialized);
+    CHECK_FALSE(exact_generic);
+  }
   // And the CPU's specialized and generic instantiations give the same bits too.
   options.backend = Backend::Cpu;
   Image<T> cpu_generic = render(scene, cam, options);

@@ -137,6 +137,13 @@ class ProgramCache {
     return programs_.emplace(options, entry).first->second;
   }
 
+  // The build options of every program this cache holds, one per program.
+  std::vector<std::string> built_options() const {
+    std::vector<std::string> options;
+    for (const auto& p : programs_) options.push_back(p.first);
+    return options;
+  }
+
   // Saves the binary of a program after its first launch. Failures only cost the cache.
   void save_binary(Entry& entry) {
     if (entry.saved || entry.cache_file.empty()) return;
