@@ -13,9 +13,9 @@
  * the bounds. If no ray's own test (tr_ray_hits_boxes) could enter a box, the
  * packet's does not either; the packet may enter more, never fewer. At a leaf each ray
  * takes its own box test, the very operations of tr_ray_hits_boxes, one ray per SIMD
- * lane, and tests the primitives only if it passes (on the host, where enough rays
- * pass, a leaf's primitives are tested for every ray, a ray per lane, and kept where
- * it passed). Each ray thus
+ * lane, and tests the primitives only if it passes (where enough rays pass, a leaf's
+ * primitives are tested for every ray, a ray per lane, and kept where it passed). Each
+ * ray thus
  * offers its primitives to its own nearest hit (tr_offer_hit), a superset of those its single-ray
  * walk offers that still holds the winner: the image is the same bits as the single-ray walk's
  * (tests/pack/packet_test.cpp). */
@@ -89,20 +89,23 @@ TR_FN int tr_packet_begin(TrRayPacket* pk) {
       pk->tri_kz[r] = tr.kz;
     }
   }
+  /* In scalars: over TrBoxRay's float3 fields, LLVM's loop vectorizer left this loop
+   * scalar on PoCL. */
   TR_SIMD_LOOP
   for (int r = 0; r < n; ++r) {
-    TrRay ray = tr_packet_ray(pk, r);
-    TrBoxRay br = tr_box_ray(ray); /* its rows are the same for every ray: unused here */
-    vec3 d = ray.d, inv_d_far = br.inv_d_far;
-    pk->ix[r] = br.inv_d.x;
-    pk->iy[r] = br.inv_d.y;
-    pk->iz[r] = br.inv_d.z;
-    pk->fx[r] = inv_d_far.x;
-    pk->fy[r] = inv_d_far.y;
-    pk->fz[r] = inv_d_far.z;
-    incoherent |= !((d.x * d0.x > TR_R(0.0)) & (d.y * d0.y > TR_R(0.0)) & (d.z * d0.z > TR_R(0.0)));
-    incoherent |= !((fabs(inv_d_far.x) < TR_R(INFINITY)) & (fabs(inv_d_far.y) < TR_R(INFINITY)) &
-                    (fabs(inv_d_far.z) < TR_R(INFINITY)));
+    real dx = pk->dx[r], dy = pk->dy[r], dz = pk->dz[r];
+    real ix = tr_box_inv(dx), iy = tr_box_inv(dy), iz = tr_box_inv(dz);
+    real fx = tr_box_inv_far(ix), fy = tr_box_inv_far(iy), fz = tr_box_inv_far(iz);
+    pk->ix[r] = ix;
+    pk->iy[r] = iy;
+    pk->iz[r] = iz;
+    pk->fx[r] = fx;
+    pk->fy[r] = fy;
+    pk->fz[r] = fz;
+    int coherent = (dx * d0.x > TR_R(0.0)) & (dy * d0.y > TR_R(0.0)) & (dz * d0.z > TR_R(0.0)) &
+                   (fabs(fx) < TR_R(INFINITY)) & (fabs(fy) < TR_R(INFINITY)) &
+                   (fabs(fz) < TR_R(INFINITY));
+    incoherent |= !coherent;
   }
   pk->o_lo = TR_VEC3(tr_lanes_min(pk->ox, n), tr_lanes_min(pk->oy, n), tr_lanes_min(pk->oz, n));
   pk->o_hi = TR_VEC3(tr_lanes_max(pk->ox, n), tr_lanes_max(pk->oy, n), tr_lanes_max(pk->oz, n));
@@ -245,10 +248,11 @@ TR_FN_INLINE void tr_packet_sphere_lanes(const TrSceneRef* s, TrRayPacket* pk, i
  * listed in rays[] (enter[r] set for each of them, clear for the rest of the packet):
  * closest hit or any hit as in tr_packet_offer. A leaf's primitives go a ray per lane
  * once a quarter of the packet entered it (a half, an eighth and always measured alike:
- * docs/performance.md), on the host only (TR_PACKET_LANES); else ray by ray. */
+ * docs/performance.md); else ray by ray. The lane loops vectorize in g++ and on PoCL
+ * alike, since the primitive tests compute in scalars (LLVM does not widen float3). */
 TR_FN_INLINE void tr_packet_leaf(const TrSceneRef* s, TrRayPacket* pk, int first, int count,
                                  const int* enter, const int* rays, int entered, int any_hit) {
-  int lanes = TR_PACKET_LANES && entered * 4 >= pk->n;
+  int lanes = entered * 4 >= pk->n;
   for (int i = first; i < first + count; ++i) {
     int prim = s->bvh_prims[i];
     if (lanes) {

@@ -6,11 +6,11 @@
  * p - point, 3 for the dot product, 2 for the correction). */
 
 /* Whether the ray can meet the plane through `point` with normal n (it is not
- * parallel to it), and the distance along the ray in *t. No branch, so that a loop
- * over rays vectorizes (scene_hit.h). */
+ * parallel to it), and the distance along the ray in *t. No branch and no float3
+ * arithmetic, so that a loop over rays vectorizes in g++ and on PoCL (scene_hit.h). */
 TR_FN_INLINE int tr_plane_hit_at(vec3 n, vec3 point, TrRay ray, real* t) {
   real denom = tr_dot(ray.d, n);
-  *t = tr_dot(point - ray.o, n) / denom;
+  *t = ((point.x - ray.o.x) * n.x + (point.y - ray.o.y) * n.y + (point.z - ray.o.z) * n.z) / denom;
   return denom != TR_R(0.0);
 }
 

@@ -46,14 +46,16 @@ TR_FN_INLINE TrTriangleRay tr_triangle_ray(TrRay ray) {
  * With `branches` 1 (one ray) the test returns at its first failed check. With 0 (a
  * constant, in a loop that runs a ray per SIMD lane: bvh_packet.h) it has no control
  * flow: every check is computed, *t is always set and *bary never. Both give the same
- * answer and t, from the same operations. */
+ * answer and t, from the same operations. No float3 arithmetic (vectors are built
+ * from scalar differences and only taken apart again), as in tr_sphere_hit_at, so that
+ * PoCL vectorizes that loop too. */
 TR_FN_INLINE int tr_triangle_hit_at(vec3 p0, vec3 p1, vec3 p2, vec3 o, const TrTriangleRay* tr,
                                     int branches, real* t_hit, vec3* bary) {
   /* Translate to the ray origin, permute so the dominant direction axis is z. */
   int kx = tr->kx, ky = tr->ky, kz = tr->kz;
-  vec3 a = tr_permute(p0 - o, kx, ky, kz);
-  vec3 b = tr_permute(p1 - o, kx, ky, kz);
-  vec3 c = tr_permute(p2 - o, kx, ky, kz);
+  vec3 a = tr_permute(TR_VEC3(p0.x - o.x, p0.y - o.y, p0.z - o.z), kx, ky, kz);
+  vec3 b = tr_permute(TR_VEC3(p1.x - o.x, p1.y - o.y, p1.z - o.z), kx, ky, kz);
+  vec3 c = tr_permute(TR_VEC3(p2.x - o.x, p2.y - o.y, p2.z - o.z), kx, ky, kz);
 
   /* Shear x and y so the ray direction becomes +z. */
   real sx = tr->sx, sy = tr->sy, sz = tr->sz;
@@ -93,15 +95,15 @@ TR_FN_INLINE int tr_triangle_hit_at(vec3 p0, vec3 p1, vec3 p2, vec3 o, const TrT
    * needle's shared edges leaked (tests/robustness, aspect 1e7 in float). */
   int straddles = !(tr_min(az, tr_min(bz, cz)) > TR_R(0.0));
   if (!branches || straddles) {
-    real max_zt = tr_max_component(tr_abs3(TR_VEC3(az, bz, cz)));
-    real max_xt = tr_max_component(tr_abs3(TR_VEC3(ax, bx, cx)));
-    real max_yt = tr_max_component(tr_abs3(TR_VEC3(ay, by, cy)));
+    real max_zt = tr_max_abs(az, bz, cz);
+    real max_xt = tr_max_abs(ax, bx, cx);
+    real max_yt = tr_max_abs(ay, by, cy);
     real delta_z = tr_gamma(3) * max_zt;
     real delta_x = tr_gamma(5) * (max_xt + max_zt);
     real delta_y = tr_gamma(5) * (max_yt + max_zt);
     real delta_e =
         TR_R(2.0) * (tr_gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
-    real max_e = tr_max_component(tr_abs3(TR_VEC3(e0, e1, e2)));
+    real max_e = tr_max_abs(e0, e1, e2);
     real delta_t = TR_R(3.0) * (tr_gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) *
                    fabs(inv_det);
     miss |= straddles & !(t > delta_t);

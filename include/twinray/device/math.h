@@ -48,6 +48,11 @@ TR_FN real tr_max_component(vec3 v) {
 TR_FN_INLINE real tr_component(vec3 v, int i) {
   return i == 0 ? v.x : (i == 1 ? v.y : v.z);
 }
+/* The greatest magnitude of three: tr_max_component(tr_abs3(v)) for v = (x, y, z), in
+ * scalars (no float3 arithmetic, which LLVM's loop vectorizer does not widen). */
+TR_FN_INLINE real tr_max_abs(real x, real y, real z) {
+  return tr_max(fabs(x), tr_max(fabs(y), fabs(z)));
+}
 
 /* Unit roundoff of real: 2^-24 for float, 2^-53 for double. */
 TR_FN real tr_unit_roundoff(void) {

@@ -20,12 +20,6 @@
  *                       unrolling a short constant-trip loop into scalar code before its
  *                       vectorizer sees it (the 4-wide box loop stayed scalar); nothing
  *                       elsewhere
- *   TR_PACKET_LANES     1 where a packet tests a leaf's primitives for all its rays in
- *                       one loop, a ray per SIMD lane (bvh_packet.h): the host, where g++
- *                       vectorizes that loop. 0 on OpenCL: a work-item runs the loop one
- *                       ray at a time (LLVM's loop vectorizer does not widen the tests'
- *                       float3 values), and the rays the leaf's box test dropped cost
- *                       as much as the rest (PoCL frames 1.1-1.8x slower)
  *   TR_PACKET_MASKED    1 where a coherent packet that stops paying for interval culling
  *                       finishes in the masked walk (bvh_packet.h): the host. 0 on OpenCL,
  *                       where those rays go one by one as before: with the masked walk
@@ -88,7 +82,6 @@ typedef float3 vec3;
 typedef ulong tr_mask64;
 #define TR_LOWEST_BIT64(m) (63 - (int)clz((m) & ((tr_mask64)0 - (m))))
 #define TR_SIMD_LOOP
-#define TR_PACKET_LANES 0
 #define TR_PACKET_MASKED 0
 #ifndef TR_FEATURES
 #error "TR_FEATURES (the Features mask) must be passed as a build option"
@@ -114,7 +107,6 @@ typedef ulong tr_mask64;
 #else
 #define TR_SIMD_LOOP
 #endif
-#define TR_PACKET_LANES 1
 #define TR_PACKET_MASKED 1
 namespace twinray {
 namespace device {
