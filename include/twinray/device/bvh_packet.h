@@ -495,8 +495,8 @@ TR_FN_NOINLINE int tr_bvh_blocked(const TrSceneRef* s, const TrRay* ray, real tm
 /* The BVH part of a packet query (pk->t and pk->prim set, tr_packet_begin's answer in
  * coherent), on an 8-wide tree: a coherent packet walks with interval culling
  * (tr_packet_walk_wide), and where that gives up or is skipped (shadow rays over dense
- * geometry) the masked walk takes its unfinished rays (on the host,
- * TR_PACKET_MASKED; on OpenCL they go ray by ray); an incoherent packet goes ray
+ * geometry) the masked walk takes its unfinished rays (TR_PACKET_MASKED: on the host,
+ * and on OpenCL for large scenes; else they go ray by ray); an incoherent packet goes ray
  * by ray. Its rays share few nodes (reflections off curved mirrors: 3.4 rays per node
  * visit on spheres_1e6, against 18-20 for mesh_1e6's coherent packets), and the masked
  * walk made spheres_1e6 frames 5% slower there. Packets walk only the 8-wide trees

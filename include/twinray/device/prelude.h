@@ -21,10 +21,13 @@
  *                       vectorizer sees it (the 4-wide box loop stayed scalar); nothing
  *                       elsewhere
  *   TR_PACKET_MASKED    1 where a coherent packet that stops paying for interval culling
- *                       finishes in the masked walk (bvh_packet.h): the host. 0 on OpenCL,
- *                       where those rays go one by one as before: with the masked walk
- *                       PoCL compiled the block kernel 10-25% longer (a cold first frame
- *                       5.7-6.3 s -> 6.0-7.9 s) and its frames moved within the noise
+ *                       finishes in the masked walk (bvh_packet.h): the host, and OpenCL
+ *                       programs for scenes of more than TR_SHADOW_PACKET_MAX_PRIMS
+ *                       primitives, whose shadow rays take it at once (the backend
+ *                       passes -DTR_PACKET_MASKED=1: PoCL's frames of 1e6 triangles took
+ *                       0.84-0.90 of the time). 0 in the other OpenCL programs, where
+ *                       those rays go one by one: there the walk made PoCL compile the
+ *                       block kernel 10-25% longer and frames moved within the noise
  *   TR_LOWEST_BIT(m)    index of the lowest set bit of a nonzero unsigned int (an
  *                       integer builtin on both sides: exact, so parity is not at stake)
  *   tr_mask64, TR_LOWEST_BIT64(m)
@@ -82,7 +85,9 @@ typedef float3 vec3;
 typedef ulong tr_mask64;
 #define TR_LOWEST_BIT64(m) (63 - (int)clz((m) & ((tr_mask64)0 - (m))))
 #define TR_SIMD_LOOP
+#ifndef TR_PACKET_MASKED
 #define TR_PACKET_MASKED 0
+#endif
 #ifndef TR_FEATURES
 #error "TR_FEATURES (the Features mask) must be passed as a build option"
 #endif

@@ -109,6 +109,16 @@ class OpenCLBackend final : public RenderBackend<T> {
     return ctx_.info().is_cpu;
   }
 
+  // Whether a block kernel's program holds the packets' masked walk for this scene:
+  // where its shadow packets take it at once, over more than TR_SHADOW_PACKET_MAX_PRIMS
+  // bounded primitives (device/bvh_packet.h). There PoCL's frames of 1e6 triangles took
+  // 0.84-0.90 of the time with it; on smaller scenes it only made the program compile
+  // longer (docs/performance.md).
+  bool masked_walk_pays() const {
+    return static_cast<long long>(scene_.n_spheres) + scene_.n_triangles >
+           TR_SHADOW_PACKET_MAX_PRIMS;
+  }
+
   void render_into(const RenderRequest<T>& request, Image<T>& image,
                    RenderInfo* info = nullptr) override {
     using clock = std::chrono::steady_clock;
@@ -126,9 +136,11 @@ class OpenCLBackend final : public RenderBackend<T> {
                              : request.options.output != Output::Shaded ? TR_ENTRY_AOV
                              : renders_blocks()                         ? TR_ENTRY_BLOCKS
                                                                         : TR_ENTRY_RENDER;
-    ProgramCache::Entry& program = ctx_.programs().get(
-        build_options(dev, features, sizeof(T) == 8, entry_points, request.options.specialize),
-        &built_now, &build_ms);
+    const bool masked_walk = entry_points == TR_ENTRY_BLOCKS && masked_walk_pays();
+    ProgramCache::Entry& program =
+        ctx_.programs().get(build_options(dev, features, sizeof(T) == 8, entry_points,
+                                          request.options.specialize, masked_walk),
+                            &built_now, &build_ms);
 
     const auto t0 = clock::now();
     const bool uploading = pending_ != nullptr;
