@@ -10,7 +10,7 @@
  * arithmetic, so that a loop over rays vectorizes in g++ and on PoCL (scene_hit.h). */
 TR_FN_INLINE int tr_plane_hit_at(vec3 n, vec3 point, TrRay ray, real* t) {
   real denom = tr_dot(ray.d, n);
-  *t = ((point.x - ray.o.x) * n.x + (point.y - ray.o.y) * n.y + (point.z - ray.o.z) * n.z) / denom;
+  *t = tr_dot(tr_sub3(point, ray.o), n) / denom;
   return denom != TR_R(0.0);
 }
 

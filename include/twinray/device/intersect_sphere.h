@@ -43,7 +43,8 @@ TR_FN_INLINE real tr_sphere_c_accurate(vec3 o, vec3 center, real r) {
 /* c = f.f - r^2, rounded, off by up to gamma(4) (f.f + r^2); where it is below half of
  * that sum the rounded value would carry more than 8 ulp of error, and it is recomputed
  * (a relative test: the same at any scale). */
-TR_FN_INLINE real tr_sphere_c(real ff, vec3 o, vec3 center, real r, int branches) {
+TR_FN_INLINE real tr_sphere_c(vec3 f, vec3 o, vec3 center, real r, int branches) {
+  real ff = tr_dot(f, f);
   real r2 = r * r;
   real c = ff - r2;
   int cancels = fabs(c) < TR_R(0.5) * (ff + r2);
@@ -59,31 +60,29 @@ TR_FN_INLINE real tr_sphere_c(real ff, vec3 o, vec3 center, real r, int branches
  * what it does not need and returns at the first miss; with 0 (a constant, in a loop
  * that runs a ray per SIMD lane: bvh_packet.h) it has no control flow: both forms of
  * the discriminant and of c are computed and selected. Both give the same answer and
- * t from the same operations. The vectors are taken apart into scalars (the same
- * operations in the same order as vec3 arithmetic, so the same bits): LLVM's loop
- * vectorizer does not widen float3 values, and PoCL would run that loop a ray at a time. */
+ * t from the same operations. Its vectors are built from scalars (tr_sub3): the same
+ * operations in the same order as vec3 arithmetic, so the same bits, but no float3
+ * arithmetic, which would leave PoCL running that loop a ray at a time. */
 TR_FN_INLINE int tr_sphere_hit_at(vec3 center, real r, TrRay ray, int branches, real* t_hit) {
-  real dx = ray.d.x, dy = ray.d.y, dz = ray.d.z;
-  real fx = ray.o.x - center.x, fy = ray.o.y - center.y, fz = ray.o.z - center.z;
-  real a = dx * dx + dy * dy + dz * dz;
-  real b = -(fx * dx + fy * dy + fz * dz); /* b' in the chapter */
+  vec3 f = tr_sub3(ray.o, center);
+  real a = tr_dot(ray.d, ray.d);
+  real b = -tr_dot(f, ray.d); /* b' in the chapter */
   real r2 = r * r;
   real b_a = b / a;
-  real px = fx + dx * b_a, py = fy + dy * b_a, pz = fz + dz * b_a;
-  real root_arg = a * (r2 - (px * px + py * py + pz * pz)); /* a D, Hearn and Baker's form */
-  real ff = fx * fx + fy * fy + fz * fz;
+  vec3 perp = TR_VEC3(f.x + ray.d.x * b_a, f.y + ray.d.y * b_a, f.z + ray.d.z * b_a);
+  real root_arg = a * (r2 - tr_dot(perp, perp)); /* a D, Hearn and Baker's form */
   real c = TR_R(0.0);
   /* 2 b^2 + a|c| < a r^2 needs 2 b^2 < a r^2 first: the common miss (a sphere off to
    * the side, |b| ~ |f| > r) pays one compare for it. */
   int near = TR_R(2.0) * (b * b) < a * r2;
   if (!branches || near) {
-    c = tr_sphere_c(ff, ray.o, center, r, branches);
+    c = tr_sphere_c(f, ray.o, center, r, branches);
     int accurate = near & (TR_R(2.0) * (b * b) + a * fabs(c) < a * r2);
     root_arg = accurate ? b * b - a * c : root_arg;
   }
   int miss = root_arg < TR_R(0.0);
   if (branches && miss) return 0;
-  if (branches && !near) c = tr_sphere_c(ff, ray.o, center, r, branches);
+  if (branches && !near) c = tr_sphere_c(f, ray.o, center, r, branches);
   real root = sqrt(root_arg); /* NaN where root_arg < 0: a miss, selected away */
   real q = b + (b >= TR_R(0.0) ? root : -root);
   miss |= q == TR_R(0.0); /* origin on the sphere and tangent: no finite root */

@@ -46,16 +46,15 @@ TR_FN_INLINE TrTriangleRay tr_triangle_ray(TrRay ray) {
  * With `branches` 1 (one ray) the test returns at its first failed check. With 0 (a
  * constant, in a loop that runs a ray per SIMD lane: bvh_packet.h) it has no control
  * flow: every check is computed, *t is always set and *bary never. Both give the same
- * answer and t, from the same operations. No float3 arithmetic (vectors are built
- * from scalar differences and only taken apart again), as in tr_sphere_hit_at, so that
- * PoCL vectorizes that loop too. */
+ * answer and t, from the same operations. No float3 arithmetic (tr_sub3,
+ * tr_max_abs), so that PoCL vectorizes that loop too. */
 TR_FN_INLINE int tr_triangle_hit_at(vec3 p0, vec3 p1, vec3 p2, vec3 o, const TrTriangleRay* tr,
                                     int branches, real* t_hit, vec3* bary) {
   /* Translate to the ray origin, permute so the dominant direction axis is z. */
   int kx = tr->kx, ky = tr->ky, kz = tr->kz;
-  vec3 a = tr_permute(TR_VEC3(p0.x - o.x, p0.y - o.y, p0.z - o.z), kx, ky, kz);
-  vec3 b = tr_permute(TR_VEC3(p1.x - o.x, p1.y - o.y, p1.z - o.z), kx, ky, kz);
-  vec3 c = tr_permute(TR_VEC3(p2.x - o.x, p2.y - o.y, p2.z - o.z), kx, ky, kz);
+  vec3 a = tr_permute(tr_sub3(p0, o), kx, ky, kz);
+  vec3 b = tr_permute(tr_sub3(p1, o), kx, ky, kz);
+  vec3 c = tr_permute(tr_sub3(p2, o), kx, ky, kz);
 
   /* Shear x and y so the ray direction becomes +z. */
   real sx = tr->sx, sy = tr->sy, sz = tr->sz;

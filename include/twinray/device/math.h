@@ -16,6 +16,14 @@ TR_FN real tr_dot(vec3 a, vec3 b) {
   return a.x * b.x + a.y * b.y + a.z * b.z;
 }
 
+/* a - b, built from the components' differences: the values of vec3 subtraction, but
+ * no float3 arithmetic, which LLVM's loop vectorizer does not widen; a vector only
+ * built and taken apart again folds into scalars. For the primitive tests, whose
+ * ray-per-lane loops (bvh_packet.h) PoCL then vectorizes too. */
+TR_FN_INLINE vec3 tr_sub3(vec3 a, vec3 b) {
+  return TR_VEC3(a.x - b.x, a.y - b.y, a.z - b.z);
+}
+
 /* Componentwise minimum and maximum. */
 TR_FN vec3 tr_min3(vec3 a, vec3 b) {
   return TR_VEC3(tr_min(a.x, b.x), tr_min(a.y, b.y), tr_min(a.z, b.z));
