@@ -471,7 +471,8 @@ std::string summary_line(const std::string& output, int width, int height, int s
     << precision << ", backend " << twinray::to_string(info.backend) << " (" << info.device
     << "), render " << info.render_ms << " ms";
   if (info.backend == twinray::Backend::OpenCL)
-    s << ", program " << (info.program_cached ? "cached " : "build ") << info.build_ms << " ms";
+    s << ", program " << (info.program_cached ? "cached " : "build ") << info.build_ms << " ms"
+      << ", kernel " << info.kernel;
   s << ", total " << total_ms << " ms";
   return s.str();
 }

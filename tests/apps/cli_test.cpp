@@ -453,6 +453,38 @@ TEST_CASE("status 3: an OpenCL device index that does not exist") {
   CHECK(listing(dir).empty());
 }
 
+TEST_CASE("a new block program's first OpenCL frame takes the pixel kernel, the next process not") {
+  // On CPU devices: the first process that asks for a block program renders with the
+  // pixel kernel (its program compiles in about half the time on PoCL), and leaves a
+  // marker in the cache folder; the next builds the block program. Same image.
+  std::string dir = fresh_folder(kWork, "tiered_kernel");
+  std::vector<std::string> env = {"TWINRAY_CACHE_DIR=" + dir + "/cache", "TWINRAY_OPENCL_KERNEL"};
+  Result cpu = run_twinray(
+      {"render", "demo", "-o", "cpu.pfm", "--width", "64", "--height", "48", "--backend", "cpu"},
+      dir, env);
+  REQUIRE_MESSAGE(cpu.status == 0, cpu.err);
+  std::vector<std::string> kernels;
+  for (const char* out : {"first.pfm", "second.pfm"}) {
+    Result r = run_twinray(
+        {"render", "demo", "-o", out, "--width", "64", "--height", "48", "--backend", "opencl"},
+        dir, env);
+    REQUIRE_MESSAGE(r.status == 0, r.err);
+    const size_t at = r.out.find(", kernel ");
+    REQUIRE(at != std::string::npos);
+    kernels.push_back(r.out.substr(at + 9, r.out.find(',', at + 9) - at - 9));
+    CHECK(read_file(dir + "/" + out) == read_file(dir + "/cpu.pfm"));
+  }
+  Result info = run_twinray({"info"}, dir, env);
+  const size_t type = info.out.find("type:");  // device [0]'s
+  REQUIRE(type != std::string::npos);
+  if (info.out.compare(info.out.find_first_not_of(' ', type + 5), 3, "CPU") == 0) {
+    // A CPU device, such as PoCL's (GPUs keep the pixel kernel).
+    CHECK(kernels == std::vector<std::string>{"pixel", "blocks"});
+  } else {
+    CHECK(kernels == std::vector<std::string>{"pixel", "pixel"});
+  }
+}
+
 TEST_CASE("demo.json renders the same bits as the built-in demo, on both backends") {
   std::string dir = fresh_folder(kWork, "demo_json");
   for (const char* precision : {"float", "double"}) {

@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <unistd.h>
 #include <mutex>
 #include <string>
 #include <utility>
@@ -34,6 +35,40 @@ Scene<T> spheres_only() {
   s.add(Sphere<T>{vec3(T(1.2), T(0.3), T(-0.4)), T(0.4), b});
   s.add_light({vec3(-2, -2, 1), T(12), vec3(1, 1, 1)});
   return s;
+}
+
+// Sets an environment variable for a scope, and puts back what was there.
+class ScopedEnv {
+ public:
+  ScopedEnv(const char* name, const char* value) : name_(name) {
+    const char* old = std::getenv(name);
+    had_ = old != nullptr;
+    if (had_) old_ = old;
+    if (value)
+      setenv(name, value, 1);
+    else
+      unsetenv(name);
+  }
+  ~ScopedEnv() {
+    if (had_)
+      setenv(name_, old_.c_str(), 1);
+    else
+      unsetenv(name_);
+  }
+
+ private:
+  const char* name_;
+  bool had_ = false;
+  std::string old_;
+};
+
+std::string fresh_dir(const std::string& name) {
+  namespace fs = std::filesystem;
+  fs::path dir =
+      fs::temp_directory_path() / ("twinray-test-" + name + "-" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir.string();
 }
 
 }  // namespace
@@ -119,6 +154,10 @@ TEST_CASE("a scene of more than 2^19 primitives gets the masked walk on CPU devi
   cam.width = 48, cam.height = 32;
   RenderOptions options;
   options.backend = Backend::OpenCL;
+  // The block kernel from the first frame on CPU devices (not the pixel kernel of a
+  // block program's first frame on the machine); GPUs keep their pixel kernel.
+  ScopedEnv kernel("TWINRAY_OPENCL_KERNEL",
+                   opencl::shared_context(-1).info().is_cpu ? "blocks" : "pixel");
   opencl::OpenCLBackend<float> backend;
   backend.set_scene(share(pack_scene(scene, backend.pack_options())));
   CHECK(backend.masked_walk_pays());
@@ -145,6 +184,82 @@ TEST_CASE("a scene of more than 2^19 primitives gets the masked walk on CPU devi
   CHECK_FALSE(small.masked_walk_pays());
   CHECK(opencl::build_options(opencl::shared_context(-1).info(), info.features, false)
             .find("TR_PACKET_MASKED") == std::string::npos);
+}
+
+TEST_CASE("a program is asked for for the first time once per machine") {
+  opencl::Context& shared = opencl::shared_context(-1);
+  const std::string dir = fresh_dir("asked");
+  const std::string a = "-DTR_TEST_OPTIONS_A", b = "-DTR_TEST_OPTIONS_B";
+  {
+    ScopedEnv cache("TWINRAY_CACHE_DIR", dir.c_str());
+    opencl::ProgramCache first(shared.context(), shared.info());
+    CHECK_FALSE(first.asked_before(a));
+    CHECK(first.asked_before(a));
+    CHECK_FALSE(first.asked_before(b));
+    // A later process with the same cache folder: the marker files remember.
+    opencl::ProgramCache later(shared.context(), shared.info());
+    CHECK(later.asked_before(a));
+    CHECK(later.asked_before(b));
+    CHECK_FALSE(later.asked_before("-DTR_TEST_OPTIONS_C"));
+  }
+  {
+    // No disk cache: only the process remembers.
+    ScopedEnv cache("TWINRAY_CACHE_DIR", "");
+    opencl::ProgramCache first(shared.context(), shared.info());
+    CHECK_FALSE(first.asked_before(a));
+    CHECK(first.asked_before(a));
+    opencl::ProgramCache later(shared.context(), shared.info());
+    CHECK_FALSE(later.asked_before(a));
+  }
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("a block program's first frame on a machine takes the pixel kernel, the same image") {
+  // On CPU devices shaded frames take the block kernel; while its program has never
+  // been asked for on this machine (PoCL's cache is cold for it), a frame takes the
+  // pixel kernel, whose program compiles in about half the time, and the next frame
+  // builds the block program.
+  const std::string dir = fresh_dir("tiered");
+  ScopedEnv cache("TWINRAY_CACHE_DIR", dir.c_str());
+  ScopedEnv choice("TWINRAY_OPENCL_KERNEL", nullptr);
+  Scene<float> scene = spheres_only<float>();
+  Camera<float> cam;
+  cam.width = 40, cam.height = 24;
+  RenderOptions options;
+  options.backend = Backend::Cpu;
+  const Image<float> cpu = render(scene, cam, options);
+  options.backend = Backend::OpenCL;
+  const opencl::DeviceInfo device = opencl::shared_context(-1).info();
+  // Each Context has a program cache of its own: a fresh one stands for a new process.
+  auto frames = [&](int n) {
+    opencl::Context ctx(device);
+    opencl::OpenCLBackend<float> backend(ctx);
+    backend.set_scene(share(pack_scene(scene, backend.pack_options())));
+    std::vector<std::string> kernels;
+    for (int i = 0; i < n; ++i) {
+      RenderInfo info;
+      Image<float> image = backend.render({cam, scene.lights, options, {}}, &info);
+      CHECK(test::differing_values(image, cpu) == 0);
+      kernels.push_back(info.kernel);
+    }
+    return kernels;
+  };
+  if (!device.is_cpu) {
+    CHECK(frames(2) == std::vector<std::string>{"pixel", "pixel"});
+    return;
+  }
+  CHECK(frames(2) == std::vector<std::string>{"pixel", "blocks"});
+  CHECK(frames(1) == std::vector<std::string>{"blocks"});  // a later process
+  {
+    ScopedEnv forced("TWINRAY_OPENCL_KERNEL", "blocks");
+    ScopedEnv other("TWINRAY_CACHE_DIR", fresh_dir("tiered-forced").c_str());
+    CHECK(frames(1) == std::vector<std::string>{"blocks"});
+  }
+  {
+    ScopedEnv none("TWINRAY_CACHE_DIR", "");  // nothing remembered between processes
+    CHECK(frames(2) == std::vector<std::string>{"pixel", "blocks"});
+  }
+  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE_TEMPLATE("buffer structs have the same size in the kernel as on the host", T, float,

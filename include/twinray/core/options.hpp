@@ -73,6 +73,7 @@ struct RenderInfo {
   Backend backend = Backend::Cpu;  // the backend that rendered
   std::string device;              // CPU model / OpenCL device name
   unsigned features = 0;           // the Features mask compiled in
+  std::string kernel;              // OpenCL kernel: blocks, pixel, aov or adaptive
   double pack_ms = 0;              // packing and acceleration structure
   double build_ms = 0;             // OpenCL program build or cache load (0 on the CPU)
   bool program_cached = false;     // the program came from a cache

@@ -59,7 +59,10 @@ class OpenCLBackend final : public RenderBackend<T> {
   // The backend on device `device_index` (over all platforms; -1: the first). Throws
   // BackendUnavailable when there is no such device, or for double on a device
   // without fp64.
-  explicit OpenCLBackend(int device_index = -1) : ctx_(shared_context(device_index)) {
+  explicit OpenCLBackend(int device_index = -1) : OpenCLBackend(shared_context(device_index)) {}
+  // The backend on a context the caller made, and keeps alive longer than the backend:
+  // its own program cache, outside the process-wide one.
+  explicit OpenCLBackend(Context& context) : ctx_(context) {
     if (sizeof(T) == 8 && !ctx_.info().has_fp64)
       throw Error(ErrorKind::BackendUnavailable,
                   "OpenCL device " + ctx_.info().name +
@@ -103,10 +106,15 @@ class OpenCLBackend final : public RenderBackend<T> {
   // loops would diverge across a warp. TWINRAY_OPENCL_KERNEL=pixel or =blocks chooses
   // (both give the same bits: tests/pack/bvh_render_test.cpp).
   bool renders_blocks() const {
-    const char* kernel = std::getenv("TWINRAY_OPENCL_KERNEL");
-    if (kernel && std::string(kernel) == "pixel") return false;
-    if (kernel && std::string(kernel) == "blocks") return true;
+    const std::string kernel = kernel_choice();
+    if (kernel == "pixel") return false;
+    if (kernel == "blocks") return true;
     return ctx_.info().is_cpu;
+  }
+  // TWINRAY_OPENCL_KERNEL's value ("" where unset).
+  static std::string kernel_choice() {
+    const char* kernel = std::getenv("TWINRAY_OPENCL_KERNEL");
+    return kernel ? kernel : "";
   }
 
   // Whether a block kernel's program holds the packets' masked walk for this scene:
@@ -132,15 +140,25 @@ class OpenCLBackend final : public RenderBackend<T> {
     double build_ms = 0;
     // The program holds only the kernels this render launches (TR_ENTRY_*); the launch
     // below follows the same choice.
-    const int entry_points = p.adaptive_spp > 0                         ? TR_ENTRY_ADAPTIVE
-                             : request.options.output != Output::Shaded ? TR_ENTRY_AOV
-                             : renders_blocks()                         ? TR_ENTRY_BLOCKS
-                                                                        : TR_ENTRY_RENDER;
-    const bool masked_walk = entry_points == TR_ENTRY_BLOCKS && masked_walk_pays();
+    int entry_points = p.adaptive_spp > 0                         ? TR_ENTRY_ADAPTIVE
+                       : request.options.output != Output::Shaded ? TR_ENTRY_AOV
+                       : renders_blocks()                         ? TR_ENTRY_BLOCKS
+                                                                  : TR_ENTRY_RENDER;
+    auto options_for = [&](int entry) {
+      return build_options(dev, features, sizeof(T) == 8, entry, request.options.specialize,
+                           entry == TR_ENTRY_BLOCKS && masked_walk_pays());
+    };
+    // The first frame that needs a block program never asked for on this machine (no
+    // marker in the disk cache: PoCL's cache is cold for it too) renders with the pixel
+    // kernel, the same image, whose program PoCL compiles in about half the time; later
+    // frames, and later processes, build the block program. On the AMD EPYC, the cold
+    // first 1080p demo frame: 3.9 s with the block kernel, 2.4 s with the pixel kernel
+    // (docs/performance.md). TWINRAY_OPENCL_KERNEL=blocks always takes the block kernel.
+    if (entry_points == TR_ENTRY_BLOCKS && kernel_choice() != "blocks" &&
+        !ctx_.programs().asked_before(options_for(TR_ENTRY_BLOCKS)))
+      entry_points = TR_ENTRY_RENDER;
     ProgramCache::Entry& program =
-        ctx_.programs().get(build_options(dev, features, sizeof(T) == 8, entry_points,
-                                          request.options.specialize, masked_walk),
-                            &built_now, &build_ms);
+        ctx_.programs().get(options_for(entry_points), &built_now, &build_ms);
 
     const auto t0 = clock::now();
     const bool uploading = pending_ != nullptr;
@@ -199,6 +217,10 @@ class OpenCLBackend final : public RenderBackend<T> {
       info->backend = Backend::OpenCL;
       info->device = dev.name;
       info->features = features;
+      info->kernel = entry_points == TR_ENTRY_BLOCKS   ? "blocks"
+                     : entry_points == TR_ENTRY_RENDER ? "pixel"
+                     : entry_points == TR_ENTRY_AOV    ? "aov"
+                                                       : "adaptive";
       info->build_ms = build_ms;
       info->program_cached = !built_now || program.from_cache;
       info->render_ms = sample_plan::ms_since(t0);

@@ -7,7 +7,9 @@
 // the process, and on disk as program binaries saved after their first launch (PoCL
 // generates the code for a work-group size at the first launch, so it is in them).
 // The disk key is the device, the driver version, the options and the whole source.
-// On PoCL with its own kernel cache on, twinray keeps no binaries (keeps_binaries).
+// On PoCL with its own kernel cache on, twinray keeps no binaries (keeps_binaries). An
+// empty marker file per program asked for tells later processes that its compile is
+// likely cached already (asked_before).
 #pragma once
 
 #include <chrono>
@@ -18,6 +20,7 @@
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -122,15 +125,9 @@ class ProgramCache {
     auto t0 = std::chrono::steady_clock::now();
     Entry entry;
     const std::string source_text = program_source();
-    std::string dir = keeps_binaries(info_) ? cache_dir() : std::string();
-    if (!dir.empty()) {
-      std::string key = info_.platform_version + "\n" + info_.name + "\n" + info_.driver_version +
-                        "\n" + options + "\n" + source_text;
-      char name[64];
-      std::snprintf(name, sizeof name, "/program-%016llx.bin",
-                    static_cast<unsigned long long>(fnv1a(key)));
-      entry.cache_file = dir + name;
-      entry.program = load_binary(entry.cache_file, options);
+    if (keeps_binaries(info_)) {
+      entry.cache_file = cache_file(options, source_text, ".bin");
+      if (!entry.cache_file.empty()) entry.program = load_binary(entry.cache_file, options);
       entry.from_cache = entry.saved = entry.program != nullptr;
     }
     if (!entry.program) entry.program = build_from_source(source_text.c_str(), options);
@@ -139,6 +136,23 @@ class ProgramCache {
     *built_now = true;
     *build_ms = entry.build_ms;
     return programs_.emplace(options, entry).first->second;
+  }
+
+  // Whether a program for these options was asked for before: by this cache, or by an
+  // earlier process on this device with the same driver and source (a marker file in
+  // cache_dir(), "program-KEY.seen"). Records the request either way, so the next call
+  // answers true. The OpenCL backend renders the first frame of a block program never
+  // asked for on this machine with the pixel kernel, which compiles in about half the
+  // time on PoCL (OpenCLBackend::render_into).
+  bool asked_before(const std::string& options) {
+    if (!asked_.insert(options).second || programs_.count(options) != 0) return true;
+    const std::string marker = cache_file(options, program_source(), ".seen");
+    if (marker.empty()) return false;
+    std::error_code ec;
+    if (std::filesystem::exists(marker, ec)) return true;
+    std::filesystem::create_directories(std::filesystem::path(marker).parent_path(), ec);
+    std::ofstream touch(marker, std::ios::binary);  // failure only costs the marker
+    return false;
   }
 
   // The build options of every program this cache holds, one per program.
@@ -178,6 +192,21 @@ class ProgramCache {
   }
 
  private:
+  // cache_dir()'s file for a program: "program-KEY" + suffix, KEY a hash of the
+  // device, the driver version, the options and the whole source. Empty without a
+  // cache folder.
+  std::string cache_file(const std::string& options, const std::string& source,
+                         const char* suffix) const {
+    const std::string dir = cache_dir();
+    if (dir.empty()) return dir;
+    const std::string key = info_.platform_version + "\n" + info_.name + "\n" +
+                            info_.driver_version + "\n" + options + "\n" + source;
+    char name[64];
+    std::snprintf(name, sizeof name, "/program-%016llx%s",
+                  static_cast<unsigned long long>(fnv1a(key)), suffix);
+    return dir + name;
+  }
+
   cl_program build_from_source(const char* source, const std::string& options) {
     cl_int err = CL_SUCCESS;
     cl_program program = clCreateProgramWithSource(context_, 1, &source, nullptr, &err);
@@ -230,6 +259,7 @@ class ProgramCache {
   cl_context context_;
   DeviceInfo info_;
   std::map<std::string, Entry> programs_;
+  std::set<std::string> asked_;  // asked_before's answers in this process
 };
 
 }  // namespace opencl
