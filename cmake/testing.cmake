@@ -9,6 +9,14 @@ function(twinray_add_test name)
   target_link_libraries(${name} PRIVATE twinray_test_main twinray_test_cpu twinray::twinray
                                         ${ARG_LIBS})
   target_compile_options(${name} PRIVATE ${TWINRAY_WARNINGS})
-  doctest_discover_tests(${name} TEST_PREFIX "${name}: "
-                         PROPERTIES ENVIRONMENT "${TWINRAY_TEST_ENV}")
+  # The environment goes on the discovered tests from a script CTest reads after them:
+  # doctest_discover_tests(PROPERTIES ENVIRONMENT ...) splits a list, and sets its first
+  # entry alone.
+  doctest_discover_tests(${name} TEST_PREFIX "${name}: " TEST_LIST ${name}_TESTS)
+  set(env_script "${CMAKE_CURRENT_BINARY_DIR}/${name}_environment.cmake")
+  file(WRITE "${env_script}"
+       "if(${name}_TESTS)\n"
+       "  set_tests_properties(\${${name}_TESTS} PROPERTIES ENVIRONMENT \"${TWINRAY_TEST_ENV}\")\n"
+       "endif()\n")
+  set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES "${env_script}")
 endfunction()
