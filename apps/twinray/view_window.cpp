@@ -3,6 +3,7 @@
 
 #include <SDL.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <condition_variable>
@@ -123,8 +124,12 @@ class RenderThread {
       auto t0 = std::chrono::steady_clock::now();
       const bool moves = animation_ && twinray::moves_objects(*animation_);
       twinray::Image<T> image = renderer_.render(frame_, &info, moves ? job.state.frame : 0);
-      out.result.ms =
-          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      // The frame's cost, without an OpenCL program build (the first frames'), since
+      // the preview size is chosen from it.
+      out.result.ms = std::max(
+          0.0,
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() -
+              info.build_ms);
       out.result.backend = info.backend;
       out.width = image.width;
       out.height = image.height;

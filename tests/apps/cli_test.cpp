@@ -458,7 +458,8 @@ TEST_CASE("a new block program's first OpenCL frame takes the pixel kernel, the 
   // pixel kernel (its program compiles in about half the time on PoCL), and leaves a
   // marker in the cache folder; the next builds the block program. Same image.
   std::string dir = fresh_folder(kWork, "tiered_kernel");
-  std::vector<std::string> env = {"TWINRAY_CACHE_DIR=" + dir + "/cache", "TWINRAY_OPENCL_KERNEL"};
+  std::vector<std::string> env = {"TWINRAY_CACHE_DIR=" + dir + "/cache", "TWINRAY_OPENCL_KERNEL",
+                                  "TWINRAY_OPENCL_FIRST_FRAME"};
   Result cpu = run_twinray(
       {"render", "demo", "-o", "cpu.pfm", "--width", "64", "--height", "48", "--backend", "cpu"},
       dir, env);

@@ -154,10 +154,10 @@ TEST_CASE("a scene of more than 2^19 primitives gets the masked walk on CPU devi
   cam.width = 48, cam.height = 32;
   RenderOptions options;
   options.backend = Backend::OpenCL;
-  // The block kernel from the first frame on CPU devices (not the pixel kernel of a
-  // block program's first frame on the machine); GPUs keep their pixel kernel.
-  ScopedEnv kernel("TWINRAY_OPENCL_KERNEL",
-                   opencl::shared_context(-1).info().is_cpu ? "blocks" : "pixel");
+  // The block kernel from the first frame where it is the device's choice (not the
+  // pixel kernel of a block program's first frame on the machine).
+  ScopedEnv kernel("TWINRAY_OPENCL_KERNEL", nullptr);
+  ScopedEnv first_frame("TWINRAY_OPENCL_FIRST_FRAME", "blocks");
   opencl::OpenCLBackend<float> backend;
   backend.set_scene(share(pack_scene(scene, backend.pack_options())));
   CHECK(backend.masked_walk_pays());
@@ -219,9 +219,11 @@ TEST_CASE("a block program's first frame on a machine takes the pixel kernel, th
   // been asked for on this machine (PoCL's cache is cold for it), a frame takes the
   // pixel kernel, whose program compiles in about half the time, and the next frame
   // builds the block program.
+  namespace fs = std::filesystem;
   const std::string dir = fresh_dir("tiered");
   ScopedEnv cache("TWINRAY_CACHE_DIR", dir.c_str());
   ScopedEnv choice("TWINRAY_OPENCL_KERNEL", nullptr);
+  ScopedEnv first_frame("TWINRAY_OPENCL_FIRST_FRAME", nullptr);
   Scene<float> scene = spheres_only<float>();
   Camera<float> cam;
   cam.width = 40, cam.height = 24;
@@ -230,7 +232,9 @@ TEST_CASE("a block program's first frame on a machine takes the pixel kernel, th
   const Image<float> cpu = render(scene, cam, options);
   options.backend = Backend::OpenCL;
   const opencl::DeviceInfo device = opencl::shared_context(-1).info();
+  const std::string blocks_entry = " -DTR_ENTRY_POINTS=" + std::to_string(TR_ENTRY_BLOCKS);
   // Each Context has a program cache of its own: a fresh one stands for a new process.
+  // Per frame: the kernel that rendered, and whether a block program was built by then.
   auto frames = [&](int n) {
     opencl::Context ctx(device);
     opencl::OpenCLBackend<float> backend(ctx);
@@ -240,26 +244,40 @@ TEST_CASE("a block program's first frame on a machine takes the pixel kernel, th
       RenderInfo info;
       Image<float> image = backend.render({cam, scene.lights, options, {}}, &info);
       CHECK(test::differing_values(image, cpu) == 0);
-      kernels.push_back(info.kernel);
+      bool block_program = false;
+      for (const std::string& built : ctx.programs().built_options())
+        block_program = block_program || built.find(blocks_entry) != std::string::npos;
+      kernels.push_back(info.kernel + (block_program ? "+" : ""));
     }
     return kernels;
+  };
+  auto markers = [](const std::string& folder) {
+    int n = 0;
+    for (const auto& e : fs::directory_iterator(folder)) n += e.path().extension() == ".seen";
+    return n;
   };
   if (!device.is_cpu) {
     CHECK(frames(2) == std::vector<std::string>{"pixel", "pixel"});
     return;
   }
-  CHECK(frames(2) == std::vector<std::string>{"pixel", "blocks"});
-  CHECK(frames(1) == std::vector<std::string>{"blocks"});  // a later process
-  {
-    ScopedEnv forced("TWINRAY_OPENCL_KERNEL", "blocks");
-    ScopedEnv other("TWINRAY_CACHE_DIR", fresh_dir("tiered-forced").c_str());
-    CHECK(frames(1) == std::vector<std::string>{"blocks"});
+  // "+": a block program was in the process by then.
+  CHECK(frames(2) == std::vector<std::string>{"pixel", "blocks+"});
+  CHECK(markers(dir) == 1);
+  CHECK(frames(1) == std::vector<std::string>{"blocks+"});  // a later process
+  for (const char* forced : {"TWINRAY_OPENCL_KERNEL", "TWINRAY_OPENCL_FIRST_FRAME"}) {
+    CAPTURE(forced);
+    const std::string other = fresh_dir("tiered-forced");
+    ScopedEnv set(forced, "blocks");
+    ScopedEnv other_cache("TWINRAY_CACHE_DIR", other.c_str());
+    CHECK(frames(1) == std::vector<std::string>{"blocks+"});
+    CHECK(markers(other) == 0);  // nothing asked for: nothing to remember
+    fs::remove_all(other);
   }
   {
     ScopedEnv none("TWINRAY_CACHE_DIR", "");  // nothing remembered between processes
-    CHECK(frames(2) == std::vector<std::string>{"pixel", "blocks"});
+    CHECK(frames(2) == std::vector<std::string>{"pixel", "blocks+"});
   }
-  std::filesystem::remove_all(dir);
+  fs::remove_all(dir);
 }
 
 TEST_CASE_TEMPLATE("buffer structs have the same size in the kernel as on the host", T, float,

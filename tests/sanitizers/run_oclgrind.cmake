@@ -21,8 +21,10 @@ if(UNINITIALIZED)
   list(APPEND tools --uninitialized)
 endif()
 # TWINRAY_CACHE_DIR empty: no program binaries, the kernel is built by Oclgrind itself.
+# Oclgrind is a CPU device: the block kernel, from the first frame on.
 execute_process(
-  COMMAND ${CMAKE_COMMAND} -E env TWINRAY_CACHE_DIR= ${OCLGRIND} ${tools} --log ${log}
+  COMMAND ${CMAKE_COMMAND} -E env TWINRAY_CACHE_DIR= TWINRAY_OPENCL_FIRST_FRAME=blocks
+          ${OCLGRIND} ${tools} --log ${log}
           ${TWINRAY} render ${SCENE} -o ${WORK_DIR}/opencl.pfm --backend opencl --quiet ${ARGS}
   RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 message(STATUS "${out}${err}")

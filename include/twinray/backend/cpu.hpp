@@ -113,6 +113,7 @@ class CpuBackend final : public RenderBackend<T> {
       info->backend = Backend::Cpu;
       info->device = device_name();
       info->features = compiled;
+      info->kernel.clear();
       info->build_ms = 0;
       info->program_cached = false;
       info->transfer_ms = 0;

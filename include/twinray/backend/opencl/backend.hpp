@@ -102,7 +102,8 @@ class OpenCLBackend final : public RenderBackend<T> {
   // Whether shaded frames run tr_kernel_render_blocks (an 8x8 block per work-item,
   // traced in packets as on the CPU backend) rather than tr_kernel_render (a pixel per
   // work-item): on CPU devices, where a work-item is an iteration of a thread's loop
-  // and the packets pay as they do in C++. GPUs keep a pixel per work-item: a packet's
+  // and the packets pay as they do in C++, except the first frame of a block program
+  // new to the machine (render_into). GPUs keep a pixel per work-item: a packet's
   // loops would diverge across a warp. TWINRAY_OPENCL_KERNEL=pixel or =blocks chooses
   // (both give the same bits: tests/pack/bvh_render_test.cpp).
   bool renders_blocks() const {
@@ -115,6 +116,14 @@ class OpenCLBackend final : public RenderBackend<T> {
   static std::string kernel_choice() {
     const char* kernel = std::getenv("TWINRAY_OPENCL_KERNEL");
     return kernel ? kernel : "";
+  }
+  // Whether the first frame of a block program never asked for on this machine takes
+  // the pixel kernel: unless TWINRAY_OPENCL_KERNEL=blocks, or
+  // TWINRAY_OPENCL_FIRST_FRAME=blocks (the block kernel from the first frame, where
+  // the block kernel is the device's choice; the test suite sets it).
+  static bool new_block_program_takes_pixel() {
+    const char* first = std::getenv("TWINRAY_OPENCL_FIRST_FRAME");
+    return kernel_choice() != "blocks" && !(first && std::string(first) == "blocks");
   }
 
   // Whether a block kernel's program holds the packets' masked walk for this scene:
@@ -152,9 +161,9 @@ class OpenCLBackend final : public RenderBackend<T> {
     // marker in the disk cache: PoCL's cache is cold for it too) renders with the pixel
     // kernel, the same image, whose program PoCL compiles in about half the time; later
     // frames, and later processes, build the block program. On the AMD EPYC, the cold
-    // first 1080p demo frame: 3.9 s with the block kernel, 2.4 s with the pixel kernel
-    // (docs/performance.md). TWINRAY_OPENCL_KERNEL=blocks always takes the block kernel.
-    if (entry_points == TR_ENTRY_BLOCKS && kernel_choice() != "blocks" &&
+    // first 1080p demo frame took 3.1-3.6 s with the block kernel and 2.1-2.4 s with
+    // the pixel kernel (docs/performance.md).
+    if (entry_points == TR_ENTRY_BLOCKS && new_block_program_takes_pixel() &&
         !ctx_.programs().asked_before(options_for(TR_ENTRY_BLOCKS)))
       entry_points = TR_ENTRY_RENDER;
     ProgramCache::Entry& program =

@@ -8,8 +8,8 @@
 // generates the code for a work-group size at the first launch, so it is in them).
 // The disk key is the device, the driver version, the options and the whole source.
 // On PoCL with its own kernel cache on, twinray keeps no binaries (keeps_binaries). An
-// empty marker file per program asked for tells later processes that its compile is
-// likely cached already (asked_before).
+// empty marker file per program asked for tells later processes that it was asked for
+// before (asked_before): the OpenCL backend then builds it from the first frame on.
 #pragma once
 
 #include <chrono>
@@ -140,16 +140,20 @@ class ProgramCache {
 
   // Whether a program for these options was asked for before: by this cache, or by an
   // earlier process on this device with the same driver and source (a marker file in
-  // cache_dir(), "program-KEY.seen"). Records the request either way, so the next call
-  // answers true. The OpenCL backend renders the first frame of a block program never
-  // asked for on this machine with the pixel kernel, which compiles in about half the
-  // time on PoCL (OpenCLBackend::render_into).
+  // cache_dir(), "program-KEY.seen", or the program's binary where twinray keeps
+  // them). Records the request either way, so the next call answers true. The OpenCL
+  // backend renders the first frame of a block program never asked for on this
+  // machine with the pixel kernel, which compiles in about half the time on PoCL
+  // (OpenCLBackend::render_into).
   bool asked_before(const std::string& options) {
     if (!asked_.insert(options).second || programs_.count(options) != 0) return true;
-    const std::string marker = cache_file(options, program_source(), ".seen");
+    const std::string source = program_source();
+    const std::string marker = cache_file(options, source, ".seen");
     if (marker.empty()) return false;
     std::error_code ec;
     if (std::filesystem::exists(marker, ec)) return true;
+    if (keeps_binaries(info_) && std::filesystem::exists(cache_file(options, source, ".bin"), ec))
+      return true;
     std::filesystem::create_directories(std::filesystem::path(marker).parent_path(), ec);
     std::ofstream touch(marker, std::ios::binary);  // failure only costs the marker
     return false;
