@@ -16,9 +16,12 @@
 
 #include "backend/parity_util.hpp"
 #include "support/packing.hpp"
+#include "support/scoped_env.hpp"
+#include "support/subprocess.hpp"
 #include <twinray/scene/demo_scene.hpp>
 
 using namespace twinray;
+using test_support::ScopedEnv;
 
 namespace {
 
@@ -37,38 +40,10 @@ Scene<T> spheres_only() {
   return s;
 }
 
-// Sets an environment variable for a scope, and puts back what was there.
-class ScopedEnv {
- public:
-  ScopedEnv(const char* name, const char* value) : name_(name) {
-    const char* old = std::getenv(name);
-    had_ = old != nullptr;
-    if (had_) old_ = old;
-    if (value)
-      setenv(name, value, 1);
-    else
-      unsetenv(name);
-  }
-  ~ScopedEnv() {
-    if (had_)
-      setenv(name_, old_.c_str(), 1);
-    else
-      unsetenv(name_);
-  }
-
- private:
-  const char* name_;
-  bool had_ = false;
-  std::string old_;
-};
-
+// A new, empty folder for this process under the system's temporary folder.
 std::string fresh_dir(const std::string& name) {
-  namespace fs = std::filesystem;
-  fs::path dir =
-      fs::temp_directory_path() / ("twinray-test-" + name + "-" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir.string();
+  return test_support::fresh_folder(std::filesystem::temp_directory_path().string(),
+                                    "twinray-test-" + name + "-" + std::to_string(getpid()));
 }
 
 }  // namespace

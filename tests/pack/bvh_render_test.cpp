@@ -10,6 +10,7 @@
 
 #include "bvh_scenes.hpp"
 #include "support/packing.hpp"
+#include "support/scoped_env.hpp"
 
 namespace {
 
@@ -114,15 +115,11 @@ TEST_CASE_TEMPLATE("bvh: both OpenCL kernels, pixel and blocks, give the CPU bac
   c.options.spp = 2;
   c.camera = bvh_test::test_camera<T>(61, 43);  // blocks cut at the right and bottom
   const auto cpu = render(c, twinray::Backend::Cpu);
-  const char* before = std::getenv("TWINRAY_OPENCL_KERNEL");
-  const std::string restore = before ? before : "";
   for (const char* kernel : {"pixel", "blocks"}) {
     CAPTURE(kernel);
-    REQUIRE(setenv("TWINRAY_OPENCL_KERNEL", kernel, 1) == 0);
+    test_support::ScopedEnv choice("TWINRAY_OPENCL_KERNEL", kernel);
+    const char* set = std::getenv("TWINRAY_OPENCL_KERNEL");
+    REQUIRE((set != nullptr && std::string(set) == kernel));
     CHECK(same_bits(cpu, render(c, twinray::Backend::OpenCL)));
   }
-  if (before)
-    setenv("TWINRAY_OPENCL_KERNEL", restore.c_str(), 1);
-  else
-    unsetenv("TWINRAY_OPENCL_KERNEL");
 }

@@ -163,11 +163,13 @@ class OpenCLBackend final : public RenderBackend<T> {
     // frames, and later processes, build the block program. On the AMD EPYC, the cold
     // first 1080p demo frame took 3.1-3.6 s with the block kernel and 2.1-2.4 s with
     // the pixel kernel (docs/performance.md).
+    std::string options = options_for(entry_points);
     if (entry_points == TR_ENTRY_BLOCKS && new_block_program_takes_pixel() &&
-        !ctx_.programs().asked_before(options_for(TR_ENTRY_BLOCKS)))
+        !ctx_.programs().asked_before(options)) {
       entry_points = TR_ENTRY_RENDER;
-    ProgramCache::Entry& program =
-        ctx_.programs().get(options_for(entry_points), &built_now, &build_ms);
+      options = options_for(entry_points);
+    }
+    ProgramCache::Entry& program = ctx_.programs().get(options, &built_now, &build_ms);
 
     const auto t0 = clock::now();
     const bool uploading = pending_ != nullptr;

@@ -125,9 +125,10 @@ class ProgramCache {
     auto t0 = std::chrono::steady_clock::now();
     Entry entry;
     const std::string source_text = program_source();
-    if (keeps_binaries(info_)) {
-      entry.cache_file = cache_file(options, source_text, ".bin");
-      if (!entry.cache_file.empty()) entry.program = load_binary(entry.cache_file, options);
+    const std::string stem = keeps_binaries(info_) ? cache_stem(options, source_text) : "";
+    if (!stem.empty()) {
+      entry.cache_file = stem + ".bin";
+      entry.program = load_binary(entry.cache_file, options);
       entry.from_cache = entry.saved = entry.program != nullptr;
     }
     if (!entry.program) entry.program = build_from_source(source_text.c_str(), options);
@@ -147,13 +148,12 @@ class ProgramCache {
   // (OpenCLBackend::render_into).
   bool asked_before(const std::string& options) {
     if (!asked_.insert(options).second || programs_.count(options) != 0) return true;
-    const std::string source = program_source();
-    const std::string marker = cache_file(options, source, ".seen");
-    if (marker.empty()) return false;
+    const std::string stem = cache_stem(options, program_source());
+    if (stem.empty()) return false;
+    const std::string marker = stem + ".seen";
     std::error_code ec;
     if (std::filesystem::exists(marker, ec)) return true;
-    if (keeps_binaries(info_) && std::filesystem::exists(cache_file(options, source, ".bin"), ec))
-      return true;
+    if (keeps_binaries(info_) && std::filesystem::exists(stem + ".bin", ec)) return true;
     std::filesystem::create_directories(std::filesystem::path(marker).parent_path(), ec);
     std::ofstream touch(marker, std::ios::binary);  // failure only costs the marker
     return false;
@@ -196,18 +196,17 @@ class ProgramCache {
   }
 
  private:
-  // cache_dir()'s file for a program: "program-KEY" + suffix, KEY a hash of the
-  // device, the driver version, the options and the whole source. Empty without a
-  // cache folder.
-  std::string cache_file(const std::string& options, const std::string& source,
-                         const char* suffix) const {
+  // cache_dir()'s path for a program's files, "program-KEY" (the binary adds ".bin",
+  // the marker ".seen"), KEY a hash of the device, the driver version, the options and
+  // the whole source. Empty without a cache folder.
+  std::string cache_stem(const std::string& options, const std::string& source) const {
     const std::string dir = cache_dir();
     if (dir.empty()) return dir;
     const std::string key = info_.platform_version + "\n" + info_.name + "\n" +
                             info_.driver_version + "\n" + options + "\n" + source;
     char name[64];
-    std::snprintf(name, sizeof name, "/program-%016llx%s",
-                  static_cast<unsigned long long>(fnv1a(key)), suffix);
+    std::snprintf(name, sizeof name, "/program-%016llx",
+                  static_cast<unsigned long long>(fnv1a(key)));
     return dir + name;
   }
 
