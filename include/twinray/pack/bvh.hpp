@@ -231,33 +231,19 @@ struct PrimRef {
   R centroid(int a) const { return R(0.5) * box.lo[a] + R(0.5) * box.hi[a]; }
 };
 
-// The neighbour of r toward -inf (toward = -1) or +inf (+1), as std::nextafter gives it,
-// for an r that is not NaN and not already the infinity it steps toward: one integer
-// step of its bits. Inline, where glibc's nextafter is a call: the builder rounds six
-// values per primitive and per node, and the calls were most of its first pass.
-template <class R>
-R step_toward(R r, int toward) {
-  using Bits = typename std::conditional<sizeof(R) == 4, std::uint32_t, std::uint64_t>::type;
-  if (r == R(0)) return R(toward) * std::numeric_limits<R>::denorm_min();
-  Bits bits;
-  std::memcpy(&bits, &r, sizeof bits);
-  // Away from zero is one more in magnitude.
-  const bool away = (r > R(0)) == (toward > 0);
-  bits = away ? bits + 1 : bits - 1;
-  std::memcpy(&r, &bits, sizeof bits);
-  return r;
-}
-
 // v rounded to R toward -inf (down) or +inf (up): a box stays around what it bounds.
+// The step is the device code's inline nextafter: the builder rounds six values per
+// primitive and per node, and glibc's calls were most of its first pass.
 template <class R>
 R round_down(double v) {
   R r = static_cast<R>(v);
-  return static_cast<double>(r) > v ? step_toward(r, -1) : r;
+  return static_cast<double>(r) > v ? device::next_after(r, -std::numeric_limits<R>::infinity())
+                                    : r;
 }
 template <class R>
 R round_up(double v) {
   R r = static_cast<R>(v);
-  return static_cast<double>(r) < v ? step_toward(r, +1) : r;
+  return static_cast<double>(r) < v ? device::next_after(r, std::numeric_limits<R>::infinity()) : r;
 }
 
 // A node of the binary tree the builder makes before the collapse: bounds min x, y, z,
