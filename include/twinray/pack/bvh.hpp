@@ -266,20 +266,6 @@ struct Stats {
 
 namespace detail {
 
-// Centroid bounds of refs[begin, end), grown in R and converted once (exactly).
-template <class R>
-Box centroid_bounds(const LargeVector<PrimRef<R>>& refs, int begin, int end) {
-  BasicBox<R> cb;
-  for (int i = begin; i < end; ++i) {
-    R c[3];
-    refs[static_cast<size_t>(i)].centroid(c);
-    cb.grow(c);
-  }
-  Box out;
-  out.grow(cb);
-  return out;
-}
-
 // Bounds and centroid bounds of refs[begin, end), in one pass.
 template <class R>
 void bounds_of(const LargeVector<PrimRef<R>>& refs, int begin, int end, Box* box, Box* cbox) {
@@ -476,7 +462,7 @@ struct Builder {
                 Box child_cbox[2]) {
     int n = end - begin;
     struct Bin {
-      BasicBox<R> box;
+      BasicBox<R> box, cbox;  // the bounds and the centroid bounds of its primitives
       int count;
     };
     // A node of n < kBins primitives gets n bins: most nodes are small (a tree of a
@@ -495,7 +481,7 @@ struct Builder {
     const double lo = cbox.lo[a];
     Bin bins[kBins];
     for (int b = 0; b < n_bins; ++b) {
-      bins[b].box = BasicBox<R>();
+      bins[b].box = bins[b].cbox = BasicBox<R>();
       bins[b].count = 0;
     }
     // The one bin computation: binning and the partition below both call it, so each
@@ -503,11 +489,16 @@ struct Builder {
     auto bin_of = [&](const PrimRef<R>& r) {
       return std::min(n_bins - 1, static_cast<int>((r.centroid(a) - lo) * scale));
     };
+    // Each bin's centroid bounds too, so the children's come from the bins and no pass
+    // over the primitives after the partition is needed.
     for (int i = begin; i < end; ++i) {
       const PrimRef<R>& r = refs[static_cast<size_t>(i)];
       Bin& bin = bins[bin_of(r)];
+      R c[3];
+      r.centroid(c);
       bin.count++;
       bin.box.grow(r.box);
+      bin.cbox.grow(c);
     }
     // Sweep from the right for the right-side areas, then from the left.
     double best_cost = std::numeric_limits<double>::infinity();
@@ -539,15 +530,16 @@ struct Builder {
     if (split < 0) return no_sah_split();  // every primitive fell in one bin
     double split_cost = traversal_cost + (area > 0 ? best_cost / area : static_cast<double>(n));
     if (n <= kMaxLeafSize && leaf_cost <= split_cost) return -1;
-    // The children's boxes are unions of their bins' boxes.
-    child_box[0] = child_box[1] = Box();
-    for (int b = 0; b < n_bins; ++b) child_box[b <= split ? 0 : 1].grow(bins[b].box);
-    // Partition by bin_of, then each side's centroid bounds.
+    // The children's bounds and centroid bounds are unions of their bins' (the sides
+    // are the bins up to `split` and after it, as the partition below sorts them).
+    child_box[0] = child_box[1] = child_cbox[0] = child_cbox[1] = Box();
+    for (int b = 0; b < n_bins; ++b) {
+      child_box[b <= split ? 0 : 1].grow(bins[b].box);
+      child_cbox[b <= split ? 0 : 1].grow(bins[b].cbox);
+    }
+    // Partition by bin_of.
     auto left_side = [&](const PrimRef<R>& r) { return bin_of(r) <= split; };
-    const int i = block_partition(refs, begin, end, left_side);
-    child_cbox[0] = centroid_bounds(refs, begin, i);
-    child_cbox[1] = centroid_bounds(refs, i, end);
-    return i;
+    return block_partition(refs, begin, end, left_side);
   }
 };
 
