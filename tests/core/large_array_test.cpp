@@ -38,3 +38,93 @@ TEST_CASE("a large array keeps its elements as it grows past the huge-page size 
   twinray::LargeVector<int> copy = v;
   CHECK(copy == v);
 }
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <vector>
+
+namespace {
+
+// Whether every page of [p, p + bytes) is resident (mincore(2)): pages a fresh mapping
+// has not yet written are not, so a resident range that nothing wrote was recycled.
+bool resident(const void* p, size_t bytes) {
+  const size_t page = static_cast<size_t>(sysconf(_SC_PAGESIZE));
+  std::vector<unsigned char> in((bytes + page - 1) / page);
+  if (mincore(const_cast<void*>(p), bytes, in.data()) != 0) return false;
+  for (unsigned char c : in)
+    if (!(c & 1)) return false;
+  return true;
+}
+
+constexpr size_t kMiB = size_t(1) << 20;
+
+}  // namespace
+
+TEST_CASE("outside a recycling scope a freed large array is unmapped, and a new one is fresh") {
+  if (!twinray::detail::kMapsHugePages) return;
+  { twinray::LargeVector<char> a(4 * kMiB, 'a'); }
+  CHECK(twinray::detail::recycled_bytes_kept() == 0);
+  twinray::LargeVector<char> b;
+  b.reserve(4 * kMiB);
+  CHECK_FALSE(resident(b.data(), 4 * kMiB));  // nothing has written it yet
+}
+
+TEST_CASE("inside a recycling scope freed large arrays serve the next ones, resident") {
+  if (!twinray::detail::kMapsHugePages) return;
+  {
+    twinray::LargeArrayRecycling recycling;
+    const char* first = nullptr;
+    {
+      twinray::LargeVector<char> a(6 * kMiB, 'a');
+      first = a.data();
+    }
+    CHECK(twinray::detail::recycled_bytes_kept() == 6 * kMiB);
+
+    // A smaller array takes the head of the kept mapping, its pages already there.
+    twinray::LargeVector<char> b;
+    b.reserve(4 * kMiB);
+    CHECK(b.data() == first);
+    CHECK(resident(b.data(), 4 * kMiB));
+    CHECK(twinray::detail::recycled_bytes_kept() == 2 * kMiB);
+
+    // Larger ones than any kept mapping: the kept ones are moved side by side into
+    // them (c takes the 2 MiB left of a, and 2 fresh).
+    {
+      twinray::LargeVector<char> c(4 * kMiB, 'c'), d(4 * kMiB, 'd');
+      CHECK(twinray::detail::recycled_bytes_kept() == 0);
+    }
+    CHECK(twinray::detail::recycled_bytes_kept() == 8 * kMiB);
+    twinray::LargeVector<char> e;
+    e.reserve(12 * kMiB);
+    CHECK(reinterpret_cast<std::uintptr_t>(e.data()) % twinray::kHugePageBytes == 0);
+    CHECK(resident(e.data(), 8 * kMiB));  // c's and d's pages, moved in
+    CHECK(twinray::detail::recycled_bytes_kept() == 0);
+    if (twinray_test::page_flags_known()) {
+      CHECK(twinray_test::advised_huge(e.data()));
+      CHECK(twinray_test::advised_huge(e.data() + 12 * kMiB - 1));
+    }
+    e.assign(12 * kMiB, 'e');  // writable to its end, the fresh part included
+    CHECK(e[12 * kMiB - 1] == 'e');
+
+    // An array freed in the scope is kept until the scope closes.
+    b = twinray::LargeVector<char>();
+    CHECK(twinray::detail::recycled_bytes_kept() == 4 * kMiB);
+  }
+  CHECK(twinray::detail::recycled_bytes_kept() == 0);
+}
+
+TEST_CASE("recycling scopes nest: what is kept is unmapped when the last one closes") {
+  if (!twinray::detail::kMapsHugePages) return;
+  {
+    twinray::LargeArrayRecycling outer;
+    {
+      twinray::LargeArrayRecycling inner;
+      twinray::LargeVector<char> a(2 * kMiB, 'a');
+    }
+    CHECK(twinray::detail::recycled_bytes_kept() == 2 * kMiB);
+  }
+  CHECK(twinray::detail::recycled_bytes_kept() == 0);
+}
+#endif

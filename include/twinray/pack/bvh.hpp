@@ -667,6 +667,19 @@ int gather_children(const LargeVector<BinaryNode<T>>& binary, int b, int w, Coll
   return n;
 }
 
+// How many wide nodes collapse_node writes for binary node b: the same gathers, no
+// writes.
+template <class T>
+size_t count_wide_nodes(const LargeVector<BinaryNode<T>>& binary, int b, int w, Collapse how) {
+  int children[TR_BVH_MAX_WIDTH];
+  const int n = gather_children(binary, b, w, how, children);
+  size_t count = 1;
+  for (int k = 0; k < n; ++k)
+    if (binary[static_cast<size_t>(children[k])].count == 0)
+      count += count_wide_nodes(binary, children[k], w, how);
+  return count;
+}
+
 // Writes the wide node for binary node b and, depth first, the nodes below it; returns
 // its index, and in *stack the most traversal stack entries a walk from it can hold:
 // (inner children - 1) here, plus the most of any inner child. Recursion depth is
@@ -719,18 +732,17 @@ Bvh<T> collapse(const BinaryBvh<T>& binary, int width,
   Bvh<T> out;
   out.nodes = WideNodes<T>(width);
   if (binary.nodes.empty()) return out;
-  // At most one wide node per inner binary node (plus a root leaf): reserved once, since
-  // growing copied the arrays and touched fresh pages once or twice more (leaves of a few
-  // primitives make nodes less full than (inner binary nodes) / (width - 1), the count
-  // this reserved before: 2.3 times too few for a 1e6-triangle mesh). Pages the nodes do
-  // not fill are never touched, so they cost address space, not memory.
-  const size_t most = binary.nodes.size() / 2 + 1;
-  out.nodes.reserve(most);
+  // The exact count, counted first: growing copied the arrays and touched fresh pages
+  // again, and a bound (one wide node per inner binary node) reserved four to six times
+  // too much, which recycled pages (core/large_array.hpp) would have filled for nothing.
+  out.nodes.reserve(detail::count_wide_nodes(binary.nodes, 0, width, how));
   int stack = 0;
   detail::collapse_node(binary.nodes, 0, how, out, &stack);
   if (stack > TR_BVH_STACK_SIZE) {
     // At fixed levels the need is at most stack_needed(width) (static_assert above).
     out.nodes.clear();
+    out.nodes.reserve(
+        detail::count_wide_nodes(binary.nodes, 0, width, detail::Collapse::FixedLevels));
     detail::collapse_node(binary.nodes, 0, detail::Collapse::FixedLevels, out, &stack);
   }
   return out;

@@ -181,6 +181,9 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
     throw invalid_input("bvh_width: " + std::to_string(options.bvh_width) + " is not 2, 4 or 8");
   const BvhPolicy bvh = options.bvh;
   validate_geometry(scene);
+  // The build frees arrays just before it asks for others as large: their pages are
+  // reused instead of faulted in afresh (core/large_array.hpp, "Recycling").
+  LargeArrayRecycling recycling;
   PackedScene<T> ps;
   ps.background = scene.background;
   for (const Material<T>& m : scene.materials) {
