@@ -231,9 +231,11 @@ TEST_CASE("bvh: a large scene's primitives and nodes ask for huge pages") {
     MESSAGE("skipped: no transparent huge pages or no /proc/self/smaps here");
     return;
   }
-  // 60000 triangles: 2.6 MB of them, and more than 2 MiB of 8-wide nodes reserved.
-  auto ps = pack_with_bvh(bvh_test::random_scene<float>(0, 60000, 5u, false), 0, 8);
+  // 200000 triangles: 8.8 MB of them, and more than 2 MiB of 8-wide nodes (the nodes
+  // are reserved at their exact count).
+  auto ps = pack_with_bvh(bvh_test::random_scene<float>(0, 200000, 5u, false), 0, 8);
   REQUIRE(ps.triangles.size() * sizeof(ps.triangles[0]) >= twinray::kHugePageBytes);
+  REQUIRE(ps.bvh_nodes.bytes() >= twinray::kHugePageBytes);
   CHECK(twinray_test::advised_huge(ps.triangles.data()));
   CHECK(twinray_test::advised_huge(ps.bvh_nodes.data()));
   // A small array stays on the heap.
