@@ -3,10 +3,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
-#include <cstdint>
-#include <cstring>
 #include <limits>
-#include <type_traits>
 #include <vector>
 
 #include "device/device_test_util.hpp"
@@ -197,46 +194,4 @@ TEST_CASE_TEMPLATE("ray offset moves the origin off the surface, to the side the
   // A ray leaving outward from the offset origin does not hit the sphere again.
   auto again = test::no_hit<T>();
   CHECK_FALSE(K<T>::tr_intersect_sphere(&s, make_ray<T>(out, hit.n), inf<T>(), &again));
-}
-
-TEST_CASE_TEMPLATE("the device code's nextafter is C's, bit for bit", T, float, double) {
-  using Bits = typename std::conditional<sizeof(T) == 4, std::uint32_t, std::uint64_t>::type;
-  using lim = std::numeric_limits<T>;
-  auto bits = [](T v) {
-    Bits b;
-    std::memcpy(&b, &v, sizeof b);
-    return b;
-  };
-  std::vector<T> values = {T(0),
-                           -T(0),
-                           T(1),
-                           -T(1),
-                           lim::min(),
-                           -lim::min(),
-                           lim::denorm_min(),
-                           -lim::denorm_min(),
-                           lim::max(),
-                           -lim::max(),
-                           lim::infinity(),
-                           -lim::infinity(),
-                           lim::quiet_NaN(),
-                           T(1e-3),
-                           T(-7.5e4)};
-  std::uint64_t state = 0x9e3779b97f4a7c15ull;  // xorshift64: random bit patterns
-  for (int i = 0; i < 20000; ++i) {
-    state ^= state << 13, state ^= state >> 7, state ^= state << 17;
-    Bits b = static_cast<Bits>(state);
-    T v;
-    std::memcpy(&v, &b, sizeof v);
-    values.push_back(v);
-  }
-  int differ = 0;
-  const T towards[] = {lim::infinity(), -lim::infinity(), T(0), T(1)};
-  for (T x : values)
-    for (T toward : towards) {
-      const T ours = twinray::device::nextafter(x, toward), c = std::nextafter(x, toward);
-      const bool same = std::isnan(c) ? std::isnan(ours) : bits(ours) == bits(c);
-      differ += !same;
-    }
-  CHECK(differ == 0);
 }

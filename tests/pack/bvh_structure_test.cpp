@@ -376,6 +376,36 @@ TEST_CASE("bvh: a greedy tree that would overflow the stack is collapsed at fixe
   CHECK(twinray::bvh::wide_stats(chosen.nodes).stack_need <= twinray::bvh::stack_needed(8));
 }
 
+TEST_CASE_TEMPLATE("bvh: the builder's rounding step is std::nextafter's", R, float, double) {
+  const R inf = std::numeric_limits<R>::infinity();
+  std::vector<R> values = {R(0),
+                           -R(0),
+                           std::numeric_limits<R>::denorm_min(),
+                           -std::numeric_limits<R>::denorm_min(),
+                           std::numeric_limits<R>::min(),
+                           -std::numeric_limits<R>::min(),
+                           std::numeric_limits<R>::max(),
+                           -std::numeric_limits<R>::max(),
+                           R(1),
+                           R(-1),
+                           inf,
+                           -inf};
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> mantissa(-1, 1);
+  std::uniform_int_distribution<int> exponent(-140, 120);
+  for (int i = 0; i < 20000; ++i)
+    values.push_back(static_cast<R>(std::ldexp(mantissa(rng), exponent(rng))));
+  for (R r : values)
+    for (int toward : {-1, 1}) {
+      if (r == R(toward) * inf) continue;  // already the infinity it steps toward
+      const R want = std::nextafter(r, R(toward) * inf);
+      const R got = twinray::bvh::step_toward(r, toward);
+      CAPTURE(r);
+      CAPTURE(toward);
+      CHECK(std::memcmp(&want, &got, sizeof(R)) == 0);
+    }
+}
+
 TEST_CASE("bvh: the block partition puts every left element first and loses none") {
   std::mt19937 rng(7);
   // Sizes around the 64-element blocks and their pairs; left shares from none to all.

@@ -6,9 +6,6 @@
 
 #include <cmath>
 #include <cstdint>
-#include <cstring>
-#include <limits>
-#include <type_traits>
 #include <glm/vec3.hpp>
 #include <glm/geometric.hpp>
 
@@ -21,32 +18,8 @@ namespace device {
 // The scalar math the device files call unqualified; std's float overloads are picked.
 using std::fabs;
 using std::floor;
+using std::nextafter;
 using std::sqrt;
-
-// nextafter(x, toward) as C99 (7.12.11.3) and OpenCL define it: the next representable
-// value after x toward `toward`. Inline, where glibc's is a call: every secondary ray's
-// origin steps its three coordinates (device/ray_offset.h). One integer step of the
-// bits, away from zero where the step grows |x|.
-template <class R>
-inline R next_after(R x, R toward) {
-  using Bits = typename std::conditional<sizeof(R) == 4, std::uint32_t, std::uint64_t>::type;
-  if (x != x || toward != toward) return x + toward;  // a NaN
-  if (x == toward) return toward;
-  if (x == R(0))
-    return toward > R(0) ? std::numeric_limits<R>::denorm_min()
-                         : -std::numeric_limits<R>::denorm_min();
-  Bits bits;
-  std::memcpy(&bits, &x, sizeof bits);
-  bits = (toward > x) == (x > R(0)) ? bits + 1 : bits - 1;
-  std::memcpy(&x, &bits, sizeof bits);
-  return x;
-}
-inline float nextafter(float x, float toward) {
-  return next_after(x, toward);
-}
-inline double nextafter(double x, double toward) {
-  return next_after(x, toward);
-}
 
 namespace f32 {
 typedef float real;

@@ -231,19 +231,33 @@ struct PrimRef {
   R centroid(int a) const { return R(0.5) * box.lo[a] + R(0.5) * box.hi[a]; }
 };
 
+// The neighbour of r toward -inf (toward = -1) or +inf (+1), as std::nextafter gives it,
+// for an r that is not NaN and not already the infinity it steps toward: one integer
+// step of its bits. Inline, where glibc's nextafter is a call: the builder rounds six
+// values per primitive and per node, and the calls were most of its first pass.
+template <class R>
+R step_toward(R r, int toward) {
+  using Bits = typename std::conditional<sizeof(R) == 4, std::uint32_t, std::uint64_t>::type;
+  if (r == R(0)) return R(toward) * std::numeric_limits<R>::denorm_min();
+  Bits bits;
+  std::memcpy(&bits, &r, sizeof bits);
+  // Away from zero is one more in magnitude.
+  const bool away = (r > R(0)) == (toward > 0);
+  bits = away ? bits + 1 : bits - 1;
+  std::memcpy(&r, &bits, sizeof bits);
+  return r;
+}
+
 // v rounded to R toward -inf (down) or +inf (up): a box stays around what it bounds.
-// The step is the device code's inline nextafter: the builder rounds six values per
-// primitive and per node, and glibc's calls were most of its first pass.
 template <class R>
 R round_down(double v) {
   R r = static_cast<R>(v);
-  return static_cast<double>(r) > v ? device::next_after(r, -std::numeric_limits<R>::infinity())
-                                    : r;
+  return static_cast<double>(r) > v ? step_toward(r, -1) : r;
 }
 template <class R>
 R round_up(double v) {
   R r = static_cast<R>(v);
-  return static_cast<double>(r) < v ? device::next_after(r, std::numeric_limits<R>::infinity()) : r;
+  return static_cast<double>(r) < v ? step_toward(r, +1) : r;
 }
 
 // A node of the binary tree the builder makes before the collapse: bounds min x, y, z,
@@ -265,6 +279,20 @@ struct Stats {
 };
 
 namespace detail {
+
+// Centroid bounds of refs[begin, end), grown in R and converted once (exactly).
+template <class R>
+Box centroid_bounds(const LargeVector<PrimRef<R>>& refs, int begin, int end) {
+  BasicBox<R> cb;
+  for (int i = begin; i < end; ++i) {
+    R c[3];
+    refs[static_cast<size_t>(i)].centroid(c);
+    cb.grow(c);
+  }
+  Box out;
+  out.grow(cb);
+  return out;
+}
 
 // Bounds and centroid bounds of refs[begin, end), in one pass.
 template <class R>
@@ -462,7 +490,7 @@ struct Builder {
                 Box child_cbox[2]) {
     int n = end - begin;
     struct Bin {
-      BasicBox<R> box, cbox;  // the bounds and the centroid bounds of its primitives
+      BasicBox<R> box;
       int count;
     };
     // A node of n < kBins primitives gets n bins: most nodes are small (a tree of a
@@ -481,7 +509,7 @@ struct Builder {
     const double lo = cbox.lo[a];
     Bin bins[kBins];
     for (int b = 0; b < n_bins; ++b) {
-      bins[b].box = bins[b].cbox = BasicBox<R>();
+      bins[b].box = BasicBox<R>();
       bins[b].count = 0;
     }
     // The one bin computation: binning and the partition below both call it, so each
@@ -489,16 +517,11 @@ struct Builder {
     auto bin_of = [&](const PrimRef<R>& r) {
       return std::min(n_bins - 1, static_cast<int>((r.centroid(a) - lo) * scale));
     };
-    // Each bin's centroid bounds too, so the children's come from the bins and no pass
-    // over the primitives after the partition is needed.
     for (int i = begin; i < end; ++i) {
       const PrimRef<R>& r = refs[static_cast<size_t>(i)];
       Bin& bin = bins[bin_of(r)];
-      R c[3];
-      r.centroid(c);
       bin.count++;
       bin.box.grow(r.box);
-      bin.cbox.grow(c);
     }
     // Sweep from the right for the right-side areas, then from the left.
     double best_cost = std::numeric_limits<double>::infinity();
@@ -530,16 +553,15 @@ struct Builder {
     if (split < 0) return no_sah_split();  // every primitive fell in one bin
     double split_cost = traversal_cost + (area > 0 ? best_cost / area : static_cast<double>(n));
     if (n <= kMaxLeafSize && leaf_cost <= split_cost) return -1;
-    // The children's bounds and centroid bounds are unions of their bins' (the sides
-    // are the bins up to `split` and after it, as the partition below sorts them).
-    child_box[0] = child_box[1] = child_cbox[0] = child_cbox[1] = Box();
-    for (int b = 0; b < n_bins; ++b) {
-      child_box[b <= split ? 0 : 1].grow(bins[b].box);
-      child_cbox[b <= split ? 0 : 1].grow(bins[b].cbox);
-    }
-    // Partition by bin_of.
+    // The children's boxes are unions of their bins' boxes.
+    child_box[0] = child_box[1] = Box();
+    for (int b = 0; b < n_bins; ++b) child_box[b <= split ? 0 : 1].grow(bins[b].box);
+    // Partition by bin_of, then each side's centroid bounds.
     auto left_side = [&](const PrimRef<R>& r) { return bin_of(r) <= split; };
-    return block_partition(refs, begin, end, left_side);
+    const int i = block_partition(refs, begin, end, left_side);
+    child_cbox[0] = centroid_bounds(refs, begin, i);
+    child_cbox[1] = centroid_bounds(refs, i, end);
+    return i;
   }
 };
 
