@@ -44,11 +44,12 @@ inline constexpr std::size_t kHugePageBytes = std::size_t(2) << 20;
 namespace detail {
 
 #if defined(__linux__) && defined(MADV_HUGEPAGE)
-// `bytes` rounded up to whole huge pages, from a mapping of its own that starts on a
-// huge-page boundary (the unaligned head and tail of a larger mapping are returned).
+// `bytes` rounded up to whole huge pages.
 inline std::size_t huge_pages_size(std::size_t bytes) {
   return (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1);
 }
+// `bytes` rounded up to whole huge pages, from a mapping of its own that starts on a
+// huge-page boundary (the unaligned head and tail of a larger mapping are returned).
 inline void* map_huge(std::size_t bytes) {
   const std::size_t size = huge_pages_size(bytes);
   void* raw = mmap(nullptr, size + kHugePageBytes, PROT_READ | PROT_WRITE,
@@ -99,7 +100,9 @@ class HugePagePool {
   // A mapping of `bytes` (rounded up to whole huge pages) made of kept pages as far as
   // they go; nullptr where none are kept. The smallest kept mapping that is large
   // enough gives its head; else a fresh range is mapped and the largest kept
-  // mappings are moved into it from its start, the rest of it left fresh.
+  // mappings are moved into it from its start, the rest of it left fresh. (mremap
+  // moves a range of one mapping only: a kept range that was itself put together
+  // from several fails to move, and its share of the new range stays fresh.)
   void* take(std::size_t bytes) {
     const std::size_t size = huge_pages_size(bytes);
     std::lock_guard<std::mutex> lock(mutex_);
