@@ -166,7 +166,7 @@ void check_masked_walk(int width) {
   std::mt19937 rng(23u);
   auto scratch = std::make_unique<typename Code<T>::BlockScratch>();
   auto& pk = scratch->packet;
-  int answered = 0, untouched = 0, hits = 0;
+  int answered = 0, untouched = 0, hits = 0, coherent_packets = 0;
   for (int trial = 0; trial < 30; ++trial) {
     const bool any_hit = (trial / 3) % 2 == 1;
     const T tmax = any_hit ? T(5) : T(INFINITY);
@@ -180,8 +180,9 @@ void check_masked_walk(int width) {
       pk.prim[r] = -1;
       if (rng() % 4 != 0) active |= 1ull << r;  // about three rays in four
     }
-    K<T>::tr_packet_begin(&pk);
-    K<T>::tr_packet_walk_masked(&ref, &pk, active, any_hit ? 1 : 0, width);
+    const int coherent = K<T>::tr_packet_begin(&pk);
+    coherent_packets += coherent;
+    K<T>::tr_packet_walk_masked(&ref, &pk, active, coherent, any_hit ? 1 : 0, width);
     for (int r = 0; r < pk.n; ++r) {
       CAPTURE(trial);
       CAPTURE(r);
@@ -197,7 +198,9 @@ void check_masked_walk(int width) {
   }
   CHECK(untouched > 0);
   CHECK(hits > 0);
-  CHECK(hits < answered);  // misses too
+  CHECK(hits < answered);       // misses too
+  CHECK(coherent_packets > 0);  // node rows picked once per node, and once per ray
+  CHECK(coherent_packets < 30);
 }
 
 // Shadow queries, tr_any_hit_packet, give each ray what its own any-hit query gives: in a

@@ -362,7 +362,7 @@ TR_FN_INLINE TrBoxRay tr_packet_box_ray(const TrRayPacket* pk, int r) {
  * (Wald, Gribble, Boulos, Kensler, "SIMD Ray Stream Tracing", 2007; Fuetterling,
  * Lojewski, Pfreundt, Ebert, "Efficient Ray Tracing Kernels for Modern CPU
  * Architectures", JCGT 4(4), 2015). Each stack entry holds a node and the rays that
- * entered it; at a node each of those rays takes its own box test (tr_ray_hits_boxes,
+ * entered it; at a node each of those rays takes its own box test (tr_ray_hits_planes,
  * with its own nearest hit so far), and child k goes on with the rays that entered it.
  * A ray thus reaches every leaf that can hold its nearest hit (its box test culls only
  * beyond its nearest hit so far, which never falls below the final one) and is
@@ -370,12 +370,15 @@ TR_FN_INLINE TrBoxRay tr_packet_box_ray(const TrRayPacket* pk, int r) {
  * bit (tr_offer_hit's order; any hit: blocked or not). What the rays share is the
  * node: it is read once for all of them, and the order is chosen once. Inner children
  * go nearest first by the least entry distance among their rays (closest hit), or in
- * bit order (any hit, as tr_walk_next). Where a coherent packet's rays spread out over
- * fine geometry (a block's rays over a 1e6-triangle mesh), interval culling
- * (tr_packet_walk_wide) enters leaves none of them enter, while each ray alone waits
- * on memory for every node it reads. */
+ * bit order (any hit, as tr_walk_next). When the rays share their direction signs
+ * (`coherent`: tr_packet_begin's answer, true of every packet tr_packet_bvh walks here),
+ * the rows of a node that their box tests read are picked once per node instead of once
+ * per ray and node: 4-5% of a mesh_1e6 frame (docs/performance.md). Where a coherent
+ * packet's rays spread out over fine geometry (a block's rays over a 1e6-triangle
+ * mesh), interval culling (tr_packet_walk_wide) enters leaves none of them enter, while
+ * each ray alone waits on memory for every node it reads. */
 TR_FN_INLINE void tr_packet_walk_masked(const TrSceneRef* s, TrRayPacket* pk, tr_mask64 active,
-                                        int any_hit, int W) {
+                                        int coherent, int any_hit, int W) {
   if (s->params->n_bvh_nodes <= 0) return;
   int stack_node[TR_BVH_STACK_SIZE];
   tr_mask64 stack_rays[TR_BVH_STACK_SIZE];
@@ -397,11 +400,13 @@ TR_FN_INLINE void tr_packet_walk_masked(const TrSceneRef* s, TrRayPacket* pk, tr
       child_t[k] = TR_R(INFINITY);
     }
     unsigned entered_children = 0u;
+    TrBoxPlanes planes = tr_box_planes(boxes, pk->rows, W);
     for (tr_mask64 m = node_rays; m != 0; m &= m - 1) {
       int r = TR_LOWEST_BIT64(m);
       TrBoxRay br = tr_packet_box_ray(pk, r);
+      if (!coherent) planes = tr_box_planes(boxes, br.rows, W);
       real t_entry[TR_BVH_MAX_WIDTH];
-      unsigned hits = tr_ray_hits_boxes(boxes, &br, pk->t[r] * grow, W, t_entry);
+      unsigned hits = tr_ray_hits_planes(&planes, &br, pk->t[r] * grow, W, t_entry);
       entered_children |= hits;
       for (; hits != 0u; hits &= hits - 1u) {
         int k = TR_LOWEST_BIT(hits);
@@ -513,7 +518,7 @@ TR_FN void tr_packet_bvh(const TrSceneRef* s, TrRayPacket* pk, int coherent, int
       tr_mask64 active = 0;
       for (int r = 0; r < pk->n; ++r)
         if (pk->t[r] >= TR_R(0.0)) active |= (tr_mask64)1 << r;
-      tr_packet_walk_masked(s, pk, active, any_hit, 8);
+      tr_packet_walk_masked(s, pk, active, 1, any_hit, 8);
       return;
     }
   }

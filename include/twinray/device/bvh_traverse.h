@@ -121,31 +121,38 @@ TR_FN_INLINE int tr_slab_enters(real nx, real ny, real nz, real fx, real fy, rea
 }
 
 /* The slab test of one wide node's W boxes (the Williams et al. 2005 slab method; see
- * tr_box_ray): t_entry[k] is where the ray enters child k's box (0 if it starts inside),
- * and bit k of the result says whether it does so before tmax_grown. The near and far
- * planes of each slab were chosen by the signs of the direction once per ray, so the
- * loop reads six rows of W contiguous values and has no branch: it vectorizes. A slab
+ * tr_box_ray), read from the node's rows that the signs of the direction pick
+ * (tr_box_planes: once per ray, or once per node for a packet whose rays share the
+ * signs): t_entry[k] is where the ray enters child k's box (0 if it starts inside),
+ * and bit k of the result says whether it does so before tmax_grown. The loop reads
+ * six rows of W contiguous values and has no branch: it vectorizes. A slab
  * distance that is NaN (0 * inf: the origin on a face of a box the ray runs parallel
  * to) fails its compare and narrows nothing. Rounding must never cull a box that holds
  * a primitive the primitive tests would report: the far distances use the padded
  * reciprocal, the caller grows tmax, and the builder pads every box (pack/bvh.hpp). */
-TR_FN_INLINE unsigned tr_ray_hits_boxes(TR_GLOBAL const real* boxes, const TrBoxRay* br,
-                                        real tmax_grown, int W, real* t_entry) {
-  TrBoxPlanes p = tr_box_planes(boxes, br->rows, W);
+TR_FN_INLINE unsigned tr_ray_hits_planes(const TrBoxPlanes* p, const TrBoxRay* br, real tmax_grown,
+                                         int W, real* t_entry) {
   unsigned mask = 0u;
   TR_SIMD_LOOP
   for (int k = 0; k < W; ++k) {
-    real nx = (p.near_x[k] - br->o.x) * br->inv_d.x;
-    real ny = (p.near_y[k] - br->o.y) * br->inv_d.y;
-    real nz = (p.near_z[k] - br->o.z) * br->inv_d.z;
-    real fx = (p.far_x[k] - br->o.x) * br->inv_d_far.x;
-    real fy = (p.far_y[k] - br->o.y) * br->inv_d_far.y;
-    real fz = (p.far_z[k] - br->o.z) * br->inv_d_far.z;
+    real nx = (p->near_x[k] - br->o.x) * br->inv_d.x;
+    real ny = (p->near_y[k] - br->o.y) * br->inv_d.y;
+    real nz = (p->near_z[k] - br->o.z) * br->inv_d.z;
+    real fx = (p->far_x[k] - br->o.x) * br->inv_d_far.x;
+    real fy = (p->far_y[k] - br->o.y) * br->inv_d_far.y;
+    real fz = (p->far_z[k] - br->o.z) * br->inv_d_far.z;
     /* The mask is set in this loop, not from a stored array of flags: g++ then builds
      * it with one vector shift and OR reduction instead of extracting W scalars. */
     mask |= (unsigned)tr_slab_enters(nx, ny, nz, fx, fy, fz, tmax_grown, &t_entry[k]) << k;
   }
   return mask;
+}
+
+/* tr_ray_hits_planes with the rows the ray's own direction picks. */
+TR_FN_INLINE unsigned tr_ray_hits_boxes(TR_GLOBAL const real* boxes, const TrBoxRay* br,
+                                        real tmax_grown, int W, real* t_entry) {
+  TrBoxPlanes p = tr_box_planes(boxes, br->rows, W);
+  return tr_ray_hits_planes(&p, br, tmax_grown, W, t_entry);
 }
 
 /* The node a walk visits next: one of the inner children entered (bits of `inner`,
