@@ -373,10 +373,10 @@ TR_FN_INLINE TrBoxRay tr_packet_box_ray(const TrRayPacket* pk, int r) {
  * bit order (any hit, as tr_walk_next). When the rays share their direction signs
  * (`coherent`: tr_packet_begin's answer, true of every packet tr_packet_bvh walks here),
  * the rows of a node that their box tests read are picked once per node instead of once
- * per ray and node: 4-5% of a mesh_1e6 frame (docs/performance.md). Where a coherent
- * packet's rays spread out over fine geometry (a block's rays over a 1e6-triangle
- * mesh), interval culling (tr_packet_walk_wide) enters leaves none of them enter, while
- * each ray alone waits on memory for every node it reads. */
+ * per ray and node: mesh_1e6 frames took 0.95-0.99 of the time (docs/performance.md).
+ * Where a coherent packet's rays spread out over fine geometry (a block's rays over a
+ * 1e6-triangle mesh), interval culling (tr_packet_walk_wide) enters leaves none of them
+ * enter, while each ray alone waits on memory for every node it reads. */
 TR_FN_INLINE void tr_packet_walk_masked(const TrSceneRef* s, TrRayPacket* pk, tr_mask64 active,
                                         int coherent, int any_hit, int W) {
   if (s->params->n_bvh_nodes <= 0) return;
