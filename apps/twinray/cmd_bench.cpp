@@ -160,13 +160,19 @@ void write_plot(const std::string& png, const std::map<std::string, std::vector<
   std::cerr << "twinray: wrote " << png << "\n";
 }
 
-// Interleaved rounds of twinray and the comparison program; the ratios on stdout.
+// Interleaved rounds of twinray and the comparison program; the ratios on stdout. The
+// order alternates from round to round (twinray's backends, then the comparator; then
+// the comparator, then the backends in reverse), so that no side always runs right
+// after another: what ran just before moves a figure on a shared machine, a build's
+// most of all (a process that has just exited leaves memory the next one must have
+// backed afresh, docs/performance.md).
 int run_compare(const BenchArgs& a, const std::vector<std::string>& scenes,
                 const std::vector<twinray::Backend>& backends,
                 const twinray_bench::Config& config) {
   struct Sample {
     std::map<std::string, std::vector<double>> ms;  // system -> median ms, per round
     std::vector<double> cpu_over_other;
+    std::vector<double> cpu_build, other_build, cpu_build_over_other;  // per round
     long long rays = 0, primitives = 0;
     std::string other_backend;
   };
@@ -177,27 +183,39 @@ int run_compare(const BenchArgs& a, const std::vector<std::string>& scenes,
       std::cerr << "twinray: round " << round << " of " << a.rounds << ": " << name << "\n";
       Sample& s = samples[name];
       twinray_bench::BenchScene<float> b = load<float>(name, a);
-      double cpu = 0;
-      for (twinray::Backend backend : backends) {
+      const bool comparator_first = round % 2 == 0;
+      twinray_bench::Row other;
+      if (comparator_first) other = run_against(a, name);
+      std::vector<twinray::Backend> order = backends;
+      if (comparator_first) std::reverse(order.begin(), order.end());
+      double cpu = 0, cpu_build = 0;
+      for (twinray::Backend backend : order) {
         twinray_bench::Row row = twinray_bench::run(b, backend, config);
         std::cerr << "twinray: " << twinray_bench::csv_line(row) << "\n";
         std::string system = "twinray-" + row.backend;
         s.ms[system].push_back(row.median_ms);
         if (std::find(systems.begin(), systems.end(), system) == systems.end())
           systems.push_back(system);
-        if (backend == twinray::Backend::Cpu) cpu = row.median_ms;
+        if (backend == twinray::Backend::Cpu) cpu = row.median_ms, cpu_build = row.build_ms;
         s.rays = row.rays;
         s.primitives = row.primitives;
       }
-      twinray_bench::Row other = run_against(a, name);
+      if (!comparator_first) other = run_against(a, name);
       s.ms["comparator"].push_back(other.median_ms);
       s.other_backend = other.backend;
       if (cpu > 0) s.cpu_over_other.push_back(cpu / other.median_ms);
+      if (cpu > 0) {
+        s.cpu_build.push_back(cpu_build);
+        s.other_build.push_back(other.build_ms);
+        if (cpu_build > 0 && other.build_ms > 0)
+          s.cpu_build_over_other.push_back(cpu_build / other.build_ms);
+      }
     }
   systems.push_back("comparator");
   std::cout << "scene,rays,twinray_cpu_ms,twinray_opencl_ms,comparator_ms,comparator_backend,"
                "cpu_over_comparator,cpu_over_comparator_min,cpu_over_comparator_max,"
-               "opencl_over_cpu"
+               "opencl_over_cpu,twinray_cpu_build_ms,comparator_build_ms,"
+               "cpu_build_over_comparator"
             << std::endl;
   std::map<std::string, std::vector<double>> ns_per_ray;
   std::map<std::string, long long> primitives;
@@ -223,7 +241,9 @@ int run_compare(const BenchArgs& a, const std::vector<std::string>& scenes,
               << ',' << field(other, "%.1f") << ',' << s.other_backend << ','
               << field(report::median(s.cpu_over_other), "%.3f") << ',' << field(lo, "%.3f") << ','
               << field(hi, "%.3f") << ',' << field(cpu > 0 && cl > 0 ? cl / cpu : 0.0, "%.3f")
-              << std::endl;
+              << ',' << field(report::median(s.cpu_build), "%.1f") << ','
+              << field(report::median(s.other_build), "%.1f") << ','
+              << field(report::median(s.cpu_build_over_other), "%.3f") << std::endl;
     primitives[name] = s.primitives;
     for (const auto& [system, values] : s.ms)
       for (double v : values)

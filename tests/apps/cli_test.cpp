@@ -738,7 +738,7 @@ TEST_CASE("bench --against: interleaved rounds, and CPU over the comparator's fa
   CHECK(contains(r.out, "scene,rays,twinray_cpu_ms,twinray_opencl_ms,comparator_ms,"));
   const std::string row = r.out.substr(r.out.find("\ndemo,") + 1);
   std::vector<std::string> f = csv_fields(row.substr(0, row.find('\n')));
-  REQUIRE(f.size() == 10);
+  REQUIRE(f.size() == 13);
   CHECK(f[4] == "2.0");        // the fastest row
   CHECK(f[5] == "fake-fast");  // and its name
   CHECK(f[3].empty());         // OpenCL was not run
@@ -749,10 +749,19 @@ TEST_CASE("bench --against: interleaved rounds, and CPU over the comparator's fa
   CHECK(std::abs(ratio - cpu / 2.0) <= 0.05 / 2.0 + 0.001);
   CHECK(std::stod(f[7]) <= ratio);
   CHECK(std::stod(f[8]) >= ratio);
+  CHECK(f[11] == "0.1");  // the comparator's build, from its fastest row
   // One call per round, with the scene and the frame's size.
   const std::string args = read_file(dir + "/args.txt");
   CHECK(std::count(args.begin(), args.end(), '\n') == 2);
   CHECK(contains(args, "--scenes demo --runs 1 --obj-dir . --width 192 --height 108"));
+  // The order alternates: round 1 twinray, then the comparator; round 2 the other way.
+  const size_t round2 = r.err.find("round 2 of 2");
+  REQUIRE(round2 != std::string::npos);
+  const std::string first = r.err.substr(0, round2), second = r.err.substr(round2);
+  REQUIRE(contains(first, "twinray: demo,cpu,"));
+  REQUIRE(contains(second, "twinray: demo,cpu,"));
+  CHECK(first.find("twinray: demo,cpu,") < first.find("twinray: demo,fake-slow,"));
+  CHECK(second.find("twinray: demo,fake-slow,") < second.find("twinray: demo,cpu,"));
 
   // A comparator that fails, or prints no row for the scene: status 1, named.
   r = bench(
@@ -768,14 +777,26 @@ TEST_CASE("bench --against: interleaved rounds, and CPU over the comparator's fa
         2);
   CHECK(bench({"demo", "--plot", "p.png"}).status == 2);
 
-  // The cost-per-ray plot, where gnuplot is installed (scripts/packages.txt has it).
-  if (run({"sh", "-c", "command -v gnuplot"}).status != 0) {
+  // A scene with a BVH, one round: the build columns, and the cost-per-ray plot where
+  // gnuplot is installed (scripts/packages.txt has it).
+  const bool gnuplot = run({"sh", "-c", "command -v gnuplot"}).status == 0;
+  std::vector<std::string> mesh_args = {
+      "mesh_1e3", "--backend", "cpu", "--rounds", "1", "--against", fake_comparator(dir, "ok")};
+  if (gnuplot) mesh_args.insert(mesh_args.end(), {"--plot", "cost.png"});
+  r = bench(mesh_args);
+  REQUIRE(r.status == 0);
+  const std::string mesh_row = r.out.substr(r.out.find("\nmesh_1e3,") + 1);
+  std::vector<std::string> g = csv_fields(mesh_row.substr(0, mesh_row.find('\n')));
+  REQUIRE(g.size() == 13);
+  // The CPU line's build over the comparator's 0.1 ms (the build printed to 0.1 ms).
+  const double build = std::stod(g[10]), build_ratio = std::stod(g[12]);
+  CHECK(build > 0.0);
+  CHECK(g[11] == "0.1");
+  CHECK(std::abs(build_ratio - build / 0.1) <= 0.05 / 0.1 + 0.001);
+  if (!gnuplot) {
     MESSAGE("skipped the plot: no gnuplot");
     return;
   }
-  r = bench({"mesh_1e3", "--backend", "cpu", "--rounds", "1", "--plot", "cost.png", "--against",
-             fake_comparator(dir, "ok")});
-  CHECK(r.status == 0);
   CHECK(read_file(dir + "/cost.png").rfind("\x89PNG", 0) == 0);
   CHECK(!std::filesystem::exists(dir + "/cost.png.tmp"));
 }
