@@ -203,8 +203,8 @@ int run_compare(const BenchArgs& a, const std::vector<std::string>& scenes,
       if (!comparator_first) other = run_against(a, name);
       s.ms["comparator"].push_back(other.median_ms);
       s.other_backend = other.backend;
-      if (cpu > 0) s.cpu_over_other.push_back(cpu / other.median_ms);
       if (cpu > 0) {
+        s.cpu_over_other.push_back(cpu / other.median_ms);
         s.cpu_build.push_back(cpu_build);
         s.other_build.push_back(other.build_ms);
         if (cpu_build > 0 && other.build_ms > 0)
