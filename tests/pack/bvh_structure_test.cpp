@@ -69,6 +69,10 @@ void check_structure(const PackedScene<T>& ps) {
           static_cast<size_t>(n_nodes) * (6 * w * sizeof(T) + 2 * w * sizeof(int)));
   REQUIRE(reinterpret_cast<std::uintptr_t>(ps.bvh_nodes.data()) % 64 == 0);
   REQUIRE(static_cast<int>(ps.bvh_prims.size()) == n);
+  // Spheres alone or triangles alone are listed in their packed order: the walks take id
+  // i at position i there and do not read bvh_prims (device/bvh_traverse.h, tr_bvh_prim).
+  if (ps.spheres.empty() || ps.triangles.empty())
+    for (int i = 0; i < n; ++i) REQUIRE(ps.bvh_prims[i] == i);
   CHECK(ps.summary().n_bvh_nodes == n_nodes);
   CHECK((ps.features & TR_F_BVH) == twinray::bvh::width_feature(w));
   auto box = [&](int node, int plane, int k) { return ps.bvh_nodes.boxes(node)[plane * w + k]; };
@@ -183,6 +187,8 @@ TEST_CASE_TEMPLATE("bvh: every primitive is reachable and boxes contain what the
       CAPTURE(w);
       CAPTURE(n);
       check_structure(pack_with_bvh(bvh_test::random_scene<T>(n, n / 2 + 1, 7u + n), 0, w));
+      check_structure(pack_with_bvh(bvh_test::random_scene<T>(n, 0, 8u + n), 0, w));
+      check_structure(pack_with_bvh(bvh_test::random_scene<T>(0, n, 9u + n), 0, w));
     }
 }
 

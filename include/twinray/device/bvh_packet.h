@@ -167,9 +167,18 @@ TR_FN_INLINE unsigned tr_packet_hits_boxes(TR_GLOBAL const real* boxes, const Tr
   return mask;
 }
 
+/* Whether a leaf that `entered` rays of a packet of n entered is tested a ray per SIMD
+ * lane for the whole packet (tr_packet_leaf) rather than ray by ray: once a quarter of
+ * the packet entered it (a half, an eighth and always measured alike:
+ * docs/performance.md). */
+TR_FN_INLINE int tr_packet_leaf_in_lanes(int entered, int n) {
+  return entered * 4 >= n;
+}
+
 /* Each ray's own test of child k's box: tr_ray_hits_boxes's operations, in the same
- * order, with the ray in lane r. Lists the rays that enter in rays[] (in order) and
- * returns how many; enter[] is scratch. */
+ * order, with the ray in lane r. Sets enter[r] for the rays that enter and returns how
+ * many; lists them in rays[] (in order) only where the leaf goes ray by ray
+ * (tr_packet_leaf_in_lanes), the one use of the list. */
 TR_FN_INLINE int tr_packet_rays_enter_box(TR_GLOBAL const real* boxes, const TrRayPacket* pk, int W,
                                           int k, int* enter, int* rays) {
   TrBoxPlanes p = tr_box_planes(boxes, pk->rows, W);
@@ -189,6 +198,10 @@ TR_FN_INLINE int tr_packet_rays_enter_box(TR_GLOBAL const real* boxes, const TrR
     enter[r] = tr_slab_enters(nx, ny, nz, fx, fy, fz, pk->t[r] * grow, &t_entry);
   }
   int count = 0;
+  TR_SIMD_LOOP
+  for (int r = 0; r < n; ++r) count += enter[r];
+  if (count == 0 || tr_packet_leaf_in_lanes(count, n)) return count;
+  count = 0;
   for (int r = 0; r < n; ++r) { /* branch-free compaction */
     rays[count] = r;
     count += enter[r];
@@ -247,14 +260,14 @@ TR_FN_INLINE void tr_packet_sphere_lanes(const TrSceneRef* s, TrRayPacket* pk, i
 /* A leaf's primitives bvh_prims[first .. first + count) offered to the `entered` rays
  * listed in rays[] (enter[r] set for each of them, clear for the rest of the packet):
  * closest hit or any hit as in tr_packet_offer. A leaf's primitives go a ray per lane
- * once a quarter of the packet entered it (a half, an eighth and always measured alike:
- * docs/performance.md); else ray by ray. The lane loops vectorize in g++ and on PoCL
+ * where tr_packet_leaf_in_lanes says so (rays[] is then not read), else ray by ray. The
+ * lane loops vectorize in g++ and on PoCL
  * alike, since the primitive tests compute in scalars (LLVM does not widen float3). */
 TR_FN_INLINE void tr_packet_leaf(const TrSceneRef* s, TrRayPacket* pk, int first, int count,
                                  const int* enter, const int* rays, int entered, int any_hit) {
-  int lanes = entered * 4 >= pk->n;
+  int lanes = tr_packet_leaf_in_lanes(entered, pk->n);
   for (int i = first; i < first + count; ++i) {
-    int prim = s->bvh_prims[i];
+    int prim = tr_bvh_prim(s, i);
     if (lanes) {
       if (TR_HAS(TR_F_SPHERES) && prim < s->params->n_spheres)
         tr_packet_sphere_lanes(s, pk, prim, enter, any_hit);

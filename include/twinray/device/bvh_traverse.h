@@ -25,6 +25,18 @@ TR_FN_INLINE TR_GLOBAL const int* tr_bvh_node_links(TR_GLOBAL const real* node, 
   return (TR_GLOBAL const int*)(node + 6 * W);
 }
 
+/* The primitive id at position i of the leaves' order, bvh_prims[i]. The packed arrays
+ * are in that order (pack/pack.hpp), so where the scene holds spheres only or
+ * triangles only the id is i itself, and the walks skip the read: a load that every
+ * leaf's primitive tests waited on, from an array that does not fit in cache on large
+ * scenes. */
+TR_FN_INLINE int tr_bvh_prim(const TrSceneRef* s, int i) {
+  if (TR_HAS(TR_F_SPHERES) && TR_HAS(TR_F_TRIANGLES) && s->params->n_spheres > 0 &&
+      s->params->n_triangles > 0)
+    return s->bvh_prims[i];
+  return i;
+}
+
 /* BVH primitive ids: spheres first, then triangles. Only the distance: see TrNearest. */
 TR_FN_INLINE real tr_primitive_t(const TrSceneRef* s, int prim, TrRay ray,
                                  const TrTriangleRay* tri_ray) {
@@ -262,7 +274,7 @@ TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nea
         have_tri_ray = 1;
       }
       for (int i = first[k]; i < first[k] + count[k]; ++i) {
-        int prim = s->bvh_prims[i];
+        int prim = tr_bvh_prim(s, i);
         real t = tr_primitive_t(s, prim, ray, &tri_ray);
         if (any_hit) {
           if (t > TR_R(0.0) && t < nearest->t) return 1;
