@@ -261,8 +261,8 @@ TR_FN_INLINE void tr_packet_sphere_lanes(const TrSceneRef* s, TrRayPacket* pk, i
  * listed in rays[] (enter[r] set for each of them, clear for the rest of the packet):
  * closest hit or any hit as in tr_packet_offer. A leaf's primitives go a ray per lane
  * where tr_packet_leaf_in_lanes says so (rays[] is then not read), else ray by ray. The
- * lane loops vectorize in g++ and on PoCL
- * alike, since the primitive tests compute in scalars (LLVM does not widen float3). */
+ * lane loops vectorize in g++ and on PoCL alike, since the primitive tests compute in
+ * scalars (LLVM does not widen float3). */
 TR_FN_INLINE void tr_packet_leaf(const TrSceneRef* s, TrRayPacket* pk, int first, int count,
                                  const int* enter, const int* rays, int entered, int any_hit) {
   int lanes = tr_packet_leaf_in_lanes(entered, pk->n);
