@@ -653,52 +653,57 @@ int main(int argc, char** argv) {
             << "Embree " << RTC_VERSION_STRING
             << " (Debian build, assertions on: 3-8% slower than a Release build)\n";
   std::cout << twinray_bench::csv_header() << std::endl;
-  for (const std::string& name : scenes) {
-    auto b = twinray_bench::make_scene<float>(name, width, height, obj_dir);
-    for (const std::string& kind_str : sphere_kinds) {
-      const SphereKind kind = kind_str == "user" ? SphereKind::User : SphereKind::Point;
-      twinray_bench::reset_peak();
-      World w;
-      w.device = rtcNewDevice(nullptr);
-      auto t0 = std::chrono::steady_clock::now();
-      build_world(w, b, kind);
-      rtcCommitScene(w.scene);
-      double build_ms = twinray_bench::ms_since(t0);
-      std::vector<float> rgb(static_cast<size_t>(width) * height * 3);
-      for (const std::string& mode_str : modes) {
-        Mode mode = mode_str == "single" ? Mode::Single
-                                         : (mode_str == "packet8" ? Mode::Packet8 : Mode::Stream);
-        Renderer r{w, b.camera, b.spp, 4, mode};
-        long long rays = r.render(rgb, threads);  // warm-up
-        std::vector<double> times;
-        for (int k = 0; k < runs; ++k) {
-          auto r0 = std::chrono::steady_clock::now();
-          rays = r.render(rgb, threads);
-          times.push_back(twinray_bench::ms_since(r0));
+  try {
+    for (const std::string& name : scenes) {
+      auto b = twinray_bench::make_scene<float>(name, width, height, obj_dir);
+      for (const std::string& kind_str : sphere_kinds) {
+        const SphereKind kind = kind_str == "user" ? SphereKind::User : SphereKind::Point;
+        twinray_bench::reset_peak();
+        World w;
+        w.device = rtcNewDevice(nullptr);
+        auto t0 = std::chrono::steady_clock::now();
+        build_world(w, b, kind);
+        rtcCommitScene(w.scene);
+        double build_ms = twinray_bench::ms_since(t0);
+        std::vector<float> rgb(static_cast<size_t>(width) * height * 3);
+        for (const std::string& mode_str : modes) {
+          Mode mode = mode_str == "single" ? Mode::Single
+                                           : (mode_str == "packet8" ? Mode::Packet8 : Mode::Stream);
+          Renderer r{w, b.camera, b.spp, 4, mode};
+          long long rays = r.render(rgb, threads);  // warm-up
+          std::vector<double> times;
+          for (int k = 0; k < runs; ++k) {
+            auto r0 = std::chrono::steady_clock::now();
+            rays = r.render(rgb, threads);
+            times.push_back(twinray_bench::ms_since(r0));
+          }
+          std::sort(times.begin(), times.end());
+          twinray_bench::Row row;
+          row.scene = name;
+          row.backend = std::string("embree-") + sphere_kind_name(kind) + "-" + mode_name(mode);
+          row.precision = "float";
+          row.width = width, row.height = height, row.spp = b.spp;
+          row.primitives = w.primitives;
+          row.build_ms = build_ms;
+          row.min_ms = times.front(), row.median_ms = times[times.size() / 2],
+          row.max_ms = times.back();
+          row.rays = rays;
+          row.mrays_per_s = rays / (row.median_ms * 1e3);
+          row.peak_mib = twinray_bench::peak_mib();
+          std::cout << twinray_bench::csv_line(row) << std::endl;
+          if (!image_prefix.empty()) {
+            std::string path = image_prefix + name + "-" + row.backend + ".ppm";
+            if (!write_ppm(path, rgb, width, height))
+              std::cerr << "embree_bench: cannot write " << path << "\n";
+          }
         }
-        std::sort(times.begin(), times.end());
-        twinray_bench::Row row;
-        row.scene = name;
-        row.backend = std::string("embree-") + sphere_kind_name(kind) + "-" + mode_name(mode);
-        row.precision = "float";
-        row.width = width, row.height = height, row.spp = b.spp;
-        row.primitives = w.primitives;
-        row.build_ms = build_ms;
-        row.min_ms = times.front(), row.median_ms = times[times.size() / 2],
-        row.max_ms = times.back();
-        row.rays = rays;
-        row.mrays_per_s = rays / (row.median_ms * 1e3);
-        row.peak_mib = twinray_bench::peak_mib();
-        std::cout << twinray_bench::csv_line(row) << std::endl;
-        if (!image_prefix.empty()) {
-          std::string path = image_prefix + name + "-" + row.backend + ".ppm";
-          if (!write_ppm(path, rgb, width, height))
-            std::cerr << "embree_bench: cannot write " << path << "\n";
-        }
+        rtcReleaseScene(w.scene);
+        rtcReleaseDevice(w.device);
       }
-      rtcReleaseScene(w.scene);
-      rtcReleaseDevice(w.device);
     }
+  } catch (const std::exception& e) {
+    std::cerr << "embree_bench: " << e.what() << "\n";
+    return 1;
   }
   return 0;
 }

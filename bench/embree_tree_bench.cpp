@@ -244,60 +244,65 @@ int main(int argc, char** argv) {
                "embree_leaves,embree_children_per_node,embree_build_ms,twinray_tree_ms,"
                "embree_tree_ms,ratio_median,ratio_q1,ratio_q3,same_bits"
             << std::endl;
-  RTCDevice device = rtcNewDevice(nullptr);
   int status = 0;
-  for (const std::string& name : scenes) {
-    auto b = twinray_bench::make_scene<float>(name, 1920, 1080, obj_dir);
-    twinray::RenderOptions options = b.options;
-    options.backend = twinray::Backend::Cpu;
-    options.spp = b.spp;
-    auto backend = twinray::make_backend<float>(options);
-    twinray::PackedScene<float> own = twinray::pack_scene(b.scene, backend->pack_options());
-    twinray::PackedScene<float> other = twinray::pack_scene(b.scene, backend->pack_options());
-    double build_ms = 0;
-    if (own.bvh_nodes.empty() || own.spheres.empty() == own.triangles.empty() ||
-        !use_embree_tree(other, device, block, &build_ms)) {
-      std::cerr << "embree_tree_bench: " << name
-                << ": needs a BVH over spheres alone or triangles alone\n";
-      status = 1;
-      continue;
-    }
-    const auto st_own = twinray::bvh::wide_stats(own.bvh_nodes);
-    const auto st_other = twinray::bvh::wide_stats(other.bvh_nodes);
-    const std::shared_ptr<const twinray::PackedScene<float>> trees[2] = {
-        twinray::share(std::move(own)), twinray::share(std::move(other))};
-    twinray::Image<float> image;
-    const twinray::RenderRequest<float> request{b.camera, b.scene.lights, options, {}};
-    uint64_t hash[2] = {0, 0};
-    bool same = true;
-    std::vector<double> ms[2], ratio;
-    for (int p = 0; p < pairs; ++p) {
-      double pair_ms[2];
-      for (int j = 0; j < 2; ++j) {
-        const int t = p % 2 == 0 ? j : 1 - j;  // alternate which tree goes first
-        backend->set_scene(trees[t]);
-        backend->render_into(request, image);  // warm-up after the switch
-        const auto t0 = std::chrono::steady_clock::now();
-        backend->render_into(request, image);
-        pair_ms[t] = twinray_bench::ms_since(t0);
-        ms[t].push_back(pair_ms[t]);
-        hash[t] = image_hash(image);
+  RTCDevice device = rtcNewDevice(nullptr);
+  try {
+    for (const std::string& name : scenes) {
+      auto b = twinray_bench::make_scene<float>(name, 1920, 1080, obj_dir);
+      twinray::RenderOptions options = b.options;
+      options.backend = twinray::Backend::Cpu;
+      options.spp = b.spp;
+      auto backend = twinray::make_backend<float>(options);
+      twinray::PackedScene<float> own = twinray::pack_scene(b.scene, backend->pack_options());
+      twinray::PackedScene<float> other = twinray::pack_scene(b.scene, backend->pack_options());
+      double build_ms = 0;
+      if (own.bvh_nodes.empty() || own.spheres.empty() == own.triangles.empty() ||
+          !use_embree_tree(other, device, block, &build_ms)) {
+        std::cerr << "embree_tree_bench: " << name
+                  << ": needs a BVH over spheres alone or triangles alone\n";
+        status = 1;
+        continue;
       }
-      same = same && hash[0] == hash[1];
-      ratio.push_back(pair_ms[1] / pair_ms[0]);
+      const auto st_own = twinray::bvh::wide_stats(own.bvh_nodes);
+      const auto st_other = twinray::bvh::wide_stats(other.bvh_nodes);
+      const std::shared_ptr<const twinray::PackedScene<float>> trees[2] = {
+          twinray::share(std::move(own)), twinray::share(std::move(other))};
+      twinray::Image<float> image;
+      const twinray::RenderRequest<float> request{b.camera, b.scene.lights, options, {}};
+      uint64_t hash[2] = {0, 0};
+      bool same = true;
+      std::vector<double> ms[2], ratio;
+      for (int p = 0; p < pairs; ++p) {
+        double pair_ms[2];
+        for (int j = 0; j < 2; ++j) {
+          const int t = p % 2 == 0 ? j : 1 - j;  // alternate which tree goes first
+          backend->set_scene(trees[t]);
+          backend->render_into(request, image);  // warm-up after the switch
+          const auto t0 = std::chrono::steady_clock::now();
+          backend->render_into(request, image);
+          pair_ms[t] = twinray_bench::ms_since(t0);
+          ms[t].push_back(pair_ms[t]);
+          hash[t] = image_hash(image);
+        }
+        same = same && hash[0] == hash[1];
+        ratio.push_back(pair_ms[1] / pair_ms[0]);
+      }
+      auto per_node = [](const twinray::bvh::Stats& st) {
+        return double(st.nodes - 1 + st.leaves) / st.nodes;  // every node but the root is a child
+      };
+      std::printf("%s,%d,%d,%.2f,%d,%d,%.2f,%.1f,%.1f,%.1f,%.3f,%.3f,%.3f,%s\n", name.c_str(),
+                  st_own.nodes, st_own.leaves, per_node(st_own), st_other.nodes, st_other.leaves,
+                  per_node(st_other), build_ms, median(ms[0]), median(ms[1]), median(ratio),
+                  median(ratio, 0.25), median(ratio, 0.75), same ? "yes" : "no");
+      std::fflush(stdout);
+      if (!same) {
+        std::cerr << "embree_tree_bench: " << name << ": the two trees gave different images\n";
+        status = 1;
+      }
     }
-    auto per_node = [](const twinray::bvh::Stats& st) {
-      return double(st.nodes - 1 + st.leaves) / st.nodes;  // every node but the root is a child
-    };
-    std::printf("%s,%d,%d,%.2f,%d,%d,%.2f,%.1f,%.1f,%.1f,%.3f,%.3f,%.3f,%s\n", name.c_str(),
-                st_own.nodes, st_own.leaves, per_node(st_own), st_other.nodes, st_other.leaves,
-                per_node(st_other), build_ms, median(ms[0]), median(ms[1]), median(ratio),
-                median(ratio, 0.25), median(ratio, 0.75), same ? "yes" : "no");
-    std::fflush(stdout);
-    if (!same) {
-      std::cerr << "embree_tree_bench: " << name << ": the two trees gave different images\n";
-      status = 1;
-    }
+  } catch (const std::exception& e) {
+    std::cerr << "embree_tree_bench: " << e.what() << "\n";
+    status = 1;
   }
   rtcReleaseDevice(device);
   return status;
