@@ -22,7 +22,6 @@
 #include <cstdint>
 #include <cstdio>
 #include <iostream>
-#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -77,15 +76,8 @@ int write_node(const Inner& node, Nodes& out, std::vector<int>& order) {
   using Builder = twinray::bvh::detail::Builder<twinray::bvh::BinaryNode<float>, float>;
   const int self = out.push();
   for (int k = 0; k < kWidth; ++k) {
-    float* box = out.boxes(self);
-    int* link = out.links(self);
-    if (k >= node.n) {  // empty slot
-      for (int a = 0; a < 3; ++a) {
-        box[(TR_BVH_MIN_X + a) * kWidth + k] = std::numeric_limits<float>::infinity();
-        box[(TR_BVH_MAX_X + a) * kWidth + k] = -std::numeric_limits<float>::infinity();
-      }
-      link[k] = 0;
-      link[kWidth + k] = -1;
+    if (k >= node.n) {
+      out.set_empty_child(self, k);
       continue;
     }
     const RTCBounds& b = node.box[k];
@@ -94,7 +86,6 @@ int write_node(const Inner& node, Nodes& out, std::vector<int>& order) {
     exact.hi[0] = b.upper_x, exact.hi[1] = b.upper_y, exact.hi[2] = b.upper_z;
     twinray::bvh::BinaryNode<float> padded;
     Builder::set_box(padded, exact);
-    for (int plane = 0; plane < 6; ++plane) box[plane * kWidth + k] = padded.bounds[plane];
     int first = 0, count = 0;
     if (node.child[k]->leaf) {
       const auto& leaf = *static_cast<const Leaf*>(node.child[k]);
@@ -104,38 +95,21 @@ int write_node(const Inner& node, Nodes& out, std::vector<int>& order) {
     } else {
       first = write_node(*static_cast<const Inner*>(node.child[k]), out, order);
     }
-    out.links(self)[k] = first;  // push() may have moved the nodes
-    out.links(self)[kWidth + k] = count;
+    out.set_child(self, k, padded.bounds, first, count);  // after push() moved the nodes
   }
   return self;
 }
 
-// Each primitive's box as twinray's builder makes it (bvh::build_binary).
+// Each primitive's box as twinray's builder makes it (bvh::primitive_box).
 std::vector<RTCBuildPrimitive> primitive_boxes(const twinray::PackedScene<float>& ps) {
-  const bool spheres = !ps.spheres.empty();
-  const size_t n = spheres ? ps.spheres.size() : ps.triangles.size();
+  const size_t n = ps.spheres.size() + ps.triangles.size();
   std::vector<RTCBuildPrimitive> prims(n);
   for (size_t i = 0; i < n; ++i) {
-    twinray::bvh::Box box;
-    if (spheres) {
-      const auto& s = ps.spheres[i];
-      const double c[3] = {s.cx, s.cy, s.cz};
-      for (int a = 0; a < 3; ++a) {
-        box.lo[a] = c[a] - s.radius;
-        box.hi[a] = c[a] + s.radius;
-      }
-    } else {
-      const auto& t = ps.triangles[i];
-      const double p[3][3] = {{t.p0x, t.p0y, t.p0z}, {t.p1x, t.p1y, t.p1z}, {t.p2x, t.p2y, t.p2z}};
-      for (const auto& v : p) box.grow(v);
-    }
+    const auto box =
+        twinray::bvh::primitive_box<float>(ps.spheres, ps.triangles, static_cast<int>(i));
     RTCBuildPrimitive& r = prims[i];
-    r.lower_x = twinray::bvh::round_down<float>(box.lo[0]);
-    r.lower_y = twinray::bvh::round_down<float>(box.lo[1]);
-    r.lower_z = twinray::bvh::round_down<float>(box.lo[2]);
-    r.upper_x = twinray::bvh::round_up<float>(box.hi[0]);
-    r.upper_y = twinray::bvh::round_up<float>(box.hi[1]);
-    r.upper_z = twinray::bvh::round_up<float>(box.hi[2]);
+    r.lower_x = box.lo[0], r.lower_y = box.lo[1], r.lower_z = box.lo[2];
+    r.upper_x = box.hi[0], r.upper_y = box.hi[1], r.upper_z = box.hi[2];
     r.geomID = 0;
     r.primID = static_cast<unsigned int>(i);
   }

@@ -148,6 +148,22 @@ class WideNodes {
   const int* links(int i) const {
     return reinterpret_cast<const int*>(node(i) + 6 * width_ * sizeof(T));
   }
+  // Child k of node i: its bounds (min x, y, z, max x, y, z) and its link (first,
+  // count: count > 0 a leaf, 0 an inner node).
+  void set_child(int i, int k, const T bounds[6], int first, int count) {
+    for (int plane = 0; plane < 6; ++plane) boxes(i)[plane * width_ + k] = bounds[plane];
+    links(i)[k] = first;
+    links(i)[width_ + k] = count;
+  }
+  // Child k of node i as an empty slot: a box no ray enters, and count -1.
+  void set_empty_child(int i, int k) {
+    for (int a = 0; a < 3; ++a) {
+      boxes(i)[(TR_BVH_MIN_X + a) * width_ + k] = std::numeric_limits<T>::infinity();
+      boxes(i)[(TR_BVH_MAX_X + a) * width_ + k] = -std::numeric_limits<T>::infinity();
+    }
+    links(i)[k] = 0;
+    links(i)[width_ + k] = -1;
+  }
 
   // The same width and the same bytes.
   friend bool operator==(const WideNodes& a, const WideNodes& b) {
@@ -587,6 +603,33 @@ struct Bvh {
   int node_count() const { return nodes.size(); }
 };
 
+// The box of primitive i (spheres first, then triangles), computed in double and
+// rounded outward to T, so it contains the primitive as the tests see it.
+template <class T>
+BasicBox<T> primitive_box(const LargeVector<typename device::Code<T>::Sphere>& spheres,
+                          const LargeVector<typename device::Code<T>::Triangle>& triangles, int i) {
+  const int n_spheres = static_cast<int>(spheres.size());
+  Box box;
+  if (i < n_spheres) {
+    const auto& s = spheres[static_cast<size_t>(i)];
+    double c[3] = {s.cx, s.cy, s.cz}, rad = s.radius;
+    for (int a = 0; a < 3; ++a) {
+      box.lo[a] = c[a] - rad;
+      box.hi[a] = c[a] + rad;
+    }
+  } else {
+    const auto& t = triangles[static_cast<size_t>(i - n_spheres)];
+    double p[3][3] = {{t.p0x, t.p0y, t.p0z}, {t.p1x, t.p1y, t.p1z}, {t.p2x, t.p2y, t.p2z}};
+    for (auto& v : p) box.grow(v);
+  }
+  BasicBox<T> rounded;
+  for (int a = 0; a < 3; ++a) {
+    rounded.lo[a] = round_down<T>(box.lo[a]);
+    rounded.hi[a] = round_up<T>(box.hi[a]);
+  }
+  return rounded;
+}
+
 // Builds the binary SAH tree of these spheres and triangles; touches nothing else.
 // Runs on the threads of parallel_for (core/parallel.hpp); the result does not depend
 // on how many.
@@ -602,23 +645,7 @@ BinaryBvh<T> build_binary(const LargeVector<typename device::Code<T>::Sphere>& s
   parallel_for(n, 4096, [&](int i) {
     PrimRef<T>& r = refs[static_cast<size_t>(i)];
     r.id = i;
-    Box box;  // in double, then rounded outward to T
-    if (i < n_spheres) {
-      const auto& s = spheres[static_cast<size_t>(i)];
-      double c[3] = {s.cx, s.cy, s.cz}, rad = s.radius;
-      for (int a = 0; a < 3; ++a) {
-        box.lo[a] = c[a] - rad;
-        box.hi[a] = c[a] + rad;
-      }
-    } else {
-      const auto& t = triangles[static_cast<size_t>(i - n_spheres)];
-      double p[3][3] = {{t.p0x, t.p0y, t.p0z}, {t.p1x, t.p1y, t.p1z}, {t.p2x, t.p2y, t.p2z}};
-      for (auto& v : p) box.grow(v);
-    }
-    for (int a = 0; a < 3; ++a) {
-      r.box.lo[a] = round_down<T>(box.lo[a]);
-      r.box.hi[a] = round_up<T>(box.hi[a]);
-    }
+    r.box = primitive_box<T>(spheres, triangles, i);
   });
   detail::Builder<Node, T> builder(refs, traversal_cost(n_spheres, n - n_spheres));
   Box root_box, root_cbox;
@@ -715,20 +742,11 @@ int collapse_node(const LargeVector<BinaryNode<T>>& binary, int b, Collapse how,
   const int n = gather_children(binary, b, w, how, children);
   int inner = 0, below = 0;
   for (int k = 0; k < w; ++k) {
-    T* box = out.nodes.boxes(self);
-    int* link = out.nodes.links(self);
-    if (k >= n) {  // empty slot: a box no ray enters
-      for (int a = 0; a < 3; ++a) {
-        box[(TR_BVH_MIN_X + a) * w + k] = std::numeric_limits<T>::infinity();
-        box[(TR_BVH_MAX_X + a) * w + k] = -std::numeric_limits<T>::infinity();
-      }
-      link[k] = 0;
-      link[w + k] = -1;
+    if (k >= n) {
+      out.nodes.set_empty_child(self, k);
       continue;
     }
     const BinaryNode<T>& child = binary[static_cast<size_t>(children[k])];
-    for (int plane = 0; plane < 6; ++plane) box[plane * w + k] = child.bounds[plane];
-    link[w + k] = child.count;
     int first = child.first;
     if (child.count == 0) {
       int child_stack = 0;
@@ -736,8 +754,8 @@ int collapse_node(const LargeVector<BinaryNode<T>>& binary, int b, Collapse how,
       below = std::max(below, child_stack);
       ++inner;
     }
-    // The recursion grows the nodes: write the link through a fresh pointer after it.
-    out.nodes.links(self)[k] = first;
+    // After the recursion, which grows the nodes and moves them.
+    out.nodes.set_child(self, k, child.bounds, first, child.count);
   }
   *stack = std::max(inner - 1, 0) + below;
   return self;
