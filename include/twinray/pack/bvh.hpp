@@ -423,20 +423,24 @@ struct Builder {
       build(nodes, first + 1, mid, end, depth + 1, child_box[1], child_cbox[1]);
       return;
     }
-    // The two subtrees side by side (parallel_for with one index each), each into its
-    // own array, spliced in left then right, the order a serial build writes them in,
-    // so the result does not depend on the thread count.
-    LargeVector<Node> sub[2] = {LargeVector<Node>(1), LargeVector<Node>(1)};
+    // The two subtrees side by side (parallel_for with one index each): the left one
+    // appended to `nodes` as a serial build appends it (this thread waits, so it is
+    // the array's one writer), the right one into an array of its own, spliced in
+    // after it. The result does not depend on the thread count, and only the right
+    // half's nodes take fresh pages and a copy.
+    LargeVector<Node> right(1);
     parallel_for(2, 1, [&](int side) {
+      if (side == 0) {
+        build(nodes, first, begin, mid, depth + 1, child_box[0], child_cbox[0]);
+        return;
+      }
       // As many nodes as primitives, as for the whole tree (build_binary): growing by
-      // doubling copied each half's nodes and touched fresh pages again.
-      sub[side].reserve(static_cast<size_t>(side == 0 ? mid - begin : end - mid));
-      build(sub[side], 0, side == 0 ? begin : mid, side == 0 ? mid : end, depth + 1,
-            child_box[side], child_cbox[side]);
+      // doubling copied the nodes and touched fresh pages again.
+      right.reserve(static_cast<size_t>(end - mid));
+      build(right, 0, mid, end, depth + 1, child_box[1], child_cbox[1]);
     });
     spare_threads.fetch_add(1);
-    splice(nodes, first, sub[0]);
-    splice(nodes, first + 1, sub[1]);
+    splice(nodes, first + 1, right);
   }
 
   // Moves a subtree built on its own (root at sub[0]) to nodes[slot] and the end.
