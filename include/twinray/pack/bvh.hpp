@@ -424,9 +424,9 @@ struct Builder {
       return;
     }
     // The two subtrees side by side (parallel_for with one index each): the left one
-    // appended to `nodes` as a serial build appends it (this thread waits, so it is
-    // the array's one writer), the right one into an array of its own, spliced in
-    // after it. The result does not depend on the thread count, and only the right
+    // appended to `nodes` as a serial build appends it (until parallel_for returns,
+    // nothing else touches `nodes`), the right one into an array of its own, spliced
+    // in after it. The result does not depend on the thread count, and only the right
     // half's nodes take fresh pages and a copy.
     LargeVector<Node> right(1);
     parallel_for(2, 1, [&](int side) {
