@@ -232,6 +232,57 @@ TEST_CASE("bvh: the build does not depend on the thread count") {
   CHECK(a.bvh_nodes == c.bvh_nodes);
 }
 
+TEST_CASE("bvh: the root's passes on every thread give what one pass gives") {
+  // More primitives than three blocks of the root's parallel passes, so the blocks'
+  // bins and boxes are merged; threads 1 and 3 hand the blocks out differently.
+  auto ps = pack_with_bvh(bvh_test::random_scene<float>(150000, 60000, 11u), 0, 2);
+  const int n_spheres = static_cast<int>(ps.spheres.size());
+  const int n = n_spheres + static_cast<int>(ps.triangles.size());
+  REQUIRE(n > 3 * twinray::bvh::kParallelPassPrims);
+  twinray::LargeVector<twinray::bvh::PrimRef<float>> refs(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    refs[static_cast<size_t>(i)].id = i;
+    refs[static_cast<size_t>(i)].box =
+        twinray::bvh::primitive_box<float>(ps.spheres, ps.triangles, i);
+  }
+  // Boxes compared bit for bit (a -0 for a +0 would count).
+  auto same = [](const twinray::bvh::Box& a, const twinray::bvh::Box& b) {
+    return std::memcmp(a.lo, b.lo, sizeof a.lo) == 0 && std::memcmp(a.hi, b.hi, sizeof a.hi) == 0;
+  };
+  using Builder = twinray::bvh::detail::Builder<twinray::bvh::BinaryNode<float>, float>;
+  twinray::bvh::Box box, cbox;
+  twinray::bvh::detail::bounds_of(refs, 0, n, &box, &cbox, false);
+  auto serial_refs = refs;
+  Builder serial(serial_refs, 2.0);
+  twinray::bvh::Box serial_box[2], serial_cbox[2];
+  const int serial_mid = serial.sah_split(0, n, box, cbox, serial_box, serial_cbox, false);
+  REQUIRE(serial_mid > 0);
+  REQUIRE(serial_mid < n);
+  for (int threads : {1, 3}) {
+    CAPTURE(threads);
+    twinray::set_thread_count(threads);
+    twinray::bvh::Box all_box, all_cbox;
+    twinray::bvh::detail::bounds_of(refs, 0, n, &all_box, &all_cbox, true);
+    CHECK(same(all_box, box));
+    CHECK(same(all_cbox, cbox));
+    auto all_refs = refs;
+    Builder all(all_refs, 2.0);
+    twinray::bvh::Box all_child_box[2], all_child_cbox[2];
+    const int all_mid = all.sah_split(0, n, box, cbox, all_child_box, all_child_cbox, true);
+    twinray::set_thread_count(0);
+    CHECK(all_mid == serial_mid);
+    for (int side = 0; side < 2; ++side) {
+      CHECK(same(all_child_box[side], serial_box[side]));
+      CHECK(same(all_child_cbox[side], serial_cbox[side]));
+    }
+    bool same_order = true;
+    for (int i = 0; i < n; ++i)
+      same_order = same_order &&
+                   all_refs[static_cast<size_t>(i)].id == serial_refs[static_cast<size_t>(i)].id;
+    CHECK(same_order);
+  }
+}
+
 TEST_CASE("bvh: a large scene's primitives and nodes ask for huge pages") {
   if (!twinray::detail::kMapsHugePages || !twinray_test::page_flags_known()) {
     MESSAGE("skipped: no transparent huge pages or no /proc/self/smaps here");

@@ -88,6 +88,9 @@ inline double traversal_cost(long long n_spheres, long long n_triangles) {
   return n_triangles == 0 && n_spheres < kSmallSphereScene ? 1.0 : kTraversalCost;
 }
 constexpr int kParallelMinPrims = 16384;  // smaller subtrees are built on the calling thread
+// The root's passes over its primitives (bounds, bins, the two sides' centroid bounds)
+// run on every thread in blocks of this many, before any subtree has a thread of its own.
+constexpr int kParallelPassPrims = 65536;
 
 // The widths a BVH can have, and the fastest on each backend (measured with
 // bench/twinray_bench.cpp --bvh-width, docs/performance.md "BVH width").
@@ -296,34 +299,70 @@ struct Stats {
 
 namespace detail {
 
+// pass(begin, end), the result of one pass over [begin, end). With all_threads, the
+// range goes in blocks of kParallelPassPrims to parallel_for's threads, and the blocks'
+// results are merged in block order by merge(into, from). Passes that take minima and
+// maxima and count give the same result either way: min, max and integer sums are
+// exact, and merging in order keeps, among equal values, the one a single pass meets
+// first. Each pass accumulates in locals and returns them: accumulators side by side
+// in one array, written on every step, shared cache lines between the threads.
+template <class Acc, class Pass, class Merge>
+Acc reduce_range(int begin, int end, bool all_threads, const Pass& pass, const Merge& merge) {
+  if (!all_threads) return pass(begin, end);
+  const size_t n = static_cast<size_t>(end - begin);
+  std::vector<Acc> parts(block_count(n, kParallelPassPrims));
+  parallel_for_blocks(n, kParallelPassPrims, [&](size_t block, size_t b, size_t e) {
+    parts[block] = pass(begin + static_cast<int>(b), begin + static_cast<int>(e));
+  });
+  for (size_t i = 1; i < parts.size(); ++i) merge(parts[0], parts[i]);
+  return parts[0];
+}
+
 // Centroid bounds of refs[begin, end), grown in R and converted once (exactly).
 template <class R>
-Box centroid_bounds(const LargeVector<PrimRef<R>>& refs, int begin, int end) {
-  BasicBox<R> cb;
-  for (int i = begin; i < end; ++i) {
-    R c[3];
-    refs[static_cast<size_t>(i)].centroid(c);
-    cb.grow(c);
-  }
+Box centroid_bounds(const LargeVector<PrimRef<R>>& refs, int begin, int end,
+                    bool all_threads = false) {
+  auto pass = [&refs](int b, int e) {
+    BasicBox<R> cb;
+    for (int i = b; i < e; ++i) {
+      R c[3];
+      refs[static_cast<size_t>(i)].centroid(c);
+      cb.grow(c);
+    }
+    return cb;
+  };
+  auto merge = [](BasicBox<R>& into, const BasicBox<R>& from) { into.grow(from); };
   Box out;
-  out.grow(cb);
+  out.grow(reduce_range<BasicBox<R>>(begin, end, all_threads, pass, merge));
   return out;
 }
 
 // Bounds and centroid bounds of refs[begin, end), in one pass.
 template <class R>
-void bounds_of(const LargeVector<PrimRef<R>>& refs, int begin, int end, Box* box, Box* cbox) {
-  BasicBox<R> b, cb;  // grown in R, converted once (exactly) at the end
-  for (int i = begin; i < end; ++i) {
-    R c[3];
-    refs[static_cast<size_t>(i)].centroid(c);
-    b.grow(refs[static_cast<size_t>(i)].box);
-    cb.grow(c);
-  }
+void bounds_of(const LargeVector<PrimRef<R>>& refs, int begin, int end, Box* box, Box* cbox,
+               bool all_threads = false) {
+  struct Bounds {
+    BasicBox<R> box, cbox;  // grown in R, converted once (exactly) at the end
+  };
+  auto pass = [&refs](int b, int e) {
+    BasicBox<R> box, cbox;
+    for (int i = b; i < e; ++i) {
+      R c[3];
+      refs[static_cast<size_t>(i)].centroid(c);
+      box.grow(refs[static_cast<size_t>(i)].box);
+      cbox.grow(c);
+    }
+    return Bounds{box, cbox};
+  };
+  auto merge = [](Bounds& into, const Bounds& from) {
+    into.box.grow(from.box);
+    into.cbox.grow(from.cbox);
+  };
+  Bounds all = reduce_range<Bounds>(begin, end, all_threads, pass, merge);
   *box = Box();
-  box->grow(b);
+  box->grow(all.box);
   *cbox = Box();
-  cbox->grow(cb);
+  cbox->grow(all.cbox);
 }
 
 // Moves the elements of v[begin, end) for which is_left holds before the others and
@@ -405,7 +444,7 @@ struct Builder {
     } else if (near_cap) {
       mid = n <= kMaxLeafSize ? -1 : median_split(begin, end, cbox, child_box, child_cbox);
     } else {
-      mid = sah_split(begin, end, box, cbox, child_box, child_cbox);
+      mid = sah_split(begin, end, box, cbox, child_box, child_cbox, depth == 0);
     }
     if (mid < 0 || depth >= kMaxDepth) {
       make_leaf(nodes[self], begin, n);
@@ -505,13 +544,17 @@ struct Builder {
   // about 2% faster, for 13-20% more build time (docs/performance.md, "BVH build").
   // Returns the split position, or -1 for "make a leaf" (allowed only at
   // kMaxLeafSize primitives or fewer); on a split, the children's bounds and centroid
-  // bounds.
+  // bounds. all_threads: the passes over the primitives run on every thread
+  // (reduce_range), for the root, while nothing else runs.
   int sah_split(int begin, int end, const Box& box, const Box& cbox, Box child_box[2],
-                Box child_cbox[2]) {
+                Box child_cbox[2], bool all_threads = false) {
     int n = end - begin;
     struct Bin {
       BasicBox<R> box;
       int count;
+    };
+    struct Bins {
+      Bin bin[kBins];
     };
     // A node of n < kBins primitives gets n bins: most nodes are small (a tree of a
     // million primitives has about half a million of them), and setting up and
@@ -527,22 +570,45 @@ struct Builder {
     if (!(extent > 0)) return no_sah_split();  // all centroids coincide
     const double scale = n_bins / extent;
     const double lo = cbox.lo[a];
-    Bin bins[kBins];
-    for (int b = 0; b < n_bins; ++b) {
-      bins[b].box = BasicBox<R>();
-      bins[b].count = 0;
-    }
     // The one bin computation: binning and the partition below both call it, so each
     // primitive goes to the side it was counted on.
     auto bin_of = [&](const PrimRef<R>& r) {
       return std::min(n_bins - 1, static_cast<int>((r.centroid(a) - lo) * scale));
     };
-    for (int i = begin; i < end; ++i) {
-      const PrimRef<R>& r = refs[static_cast<size_t>(i)];
-      Bin& bin = bins[bin_of(r)];
-      bin.count++;
-      bin.box.grow(r.box);
+    auto bin_pass = [&](int b, int e, Bins& into) {
+      for (int i = b; i < e; ++i) {
+        const PrimRef<R>& r = refs[static_cast<size_t>(i)];
+        Bin& bin = into.bin[bin_of(r)];
+        bin.count++;
+        bin.box.grow(r.box);
+      }
+    };
+    auto empty_bins = [n_bins](Bins& set) {
+      for (int b = 0; b < n_bins; ++b) {
+        set.bin[b].box = BasicBox<R>();
+        set.bin[b].count = 0;
+      }
+    };
+    Bins set;
+    if (all_threads) {
+      auto pass = [&](int b, int e) {
+        Bins local;
+        empty_bins(local);
+        bin_pass(b, e, local);
+        return local;
+      };
+      auto merge = [n_bins](Bins& into, const Bins& from) {
+        for (int b = 0; b < n_bins; ++b) {
+          into.bin[b].count += from.bin[b].count;
+          into.bin[b].box.grow(from.bin[b].box);
+        }
+      };
+      set = reduce_range<Bins>(begin, end, true, pass, merge);
+    } else {
+      empty_bins(set);
+      bin_pass(begin, end, set);
     }
+    Bin* bins = set.bin;
     // Sweep from the right for the right-side areas, then from the left.
     double best_cost = std::numeric_limits<double>::infinity();
     int split = -1;
@@ -579,8 +645,8 @@ struct Builder {
     // Partition by bin_of, then each side's centroid bounds.
     auto left_side = [&](const PrimRef<R>& r) { return bin_of(r) <= split; };
     const int i = block_partition(refs, begin, end, left_side);
-    child_cbox[0] = centroid_bounds(refs, begin, i);
-    child_cbox[1] = centroid_bounds(refs, i, end);
+    child_cbox[0] = centroid_bounds(refs, begin, i, all_threads);
+    child_cbox[1] = centroid_bounds(refs, i, end, all_threads);
     return i;
   }
 };
@@ -653,7 +719,7 @@ BinaryBvh<T> build_binary(const LargeVector<typename device::Code<T>::Sphere>& s
   });
   detail::Builder<Node, T> builder(refs, traversal_cost(n_spheres, n - n_spheres));
   Box root_box, root_cbox;
-  detail::bounds_of(refs, 0, n, &root_box, &root_cbox);
+  detail::bounds_of(refs, 0, n, &root_box, &root_cbox, true);
   bvh.nodes.reserve(static_cast<size_t>(n));
   bvh.nodes.emplace_back();
   builder.build(bvh.nodes, 0, 0, n, 0, root_box, root_cbox);
