@@ -304,8 +304,9 @@ namespace detail {
 // results are merged in block order by merge(into, from). Passes that take minima and
 // maxima and count give the same result either way: min, max and integer sums are
 // exact, and merging in order keeps, among equal values, the one a single pass meets
-// first. Each pass accumulates in locals and returns them: accumulators side by side
-// in one array, written on every step, shared cache lines between the threads.
+// first. Each pass accumulates in locals and returns them once: accumulators side by
+// side in one array, written at every step, would share cache lines between the
+// threads (the root's bounds took twice as long that way).
 template <class Acc, class Pass, class Merge>
 Acc reduce_range(int begin, int end, bool all_threads, const Pass& pass, const Merge& merge) {
   if (!all_threads) return pass(begin, end);
@@ -575,40 +576,28 @@ struct Builder {
     auto bin_of = [&](const PrimRef<R>& r) {
       return std::min(n_bins - 1, static_cast<int>((r.centroid(a) - lo) * scale));
     };
-    auto bin_pass = [&](int b, int e, Bins& into) {
+    auto bin_pass = [&](int b, int e) {
+      Bins set;
+      for (int k = 0; k < n_bins; ++k) {
+        set.bin[k].box = BasicBox<R>();
+        set.bin[k].count = 0;
+      }
       for (int i = b; i < e; ++i) {
         const PrimRef<R>& r = refs[static_cast<size_t>(i)];
-        Bin& bin = into.bin[bin_of(r)];
+        Bin& bin = set.bin[bin_of(r)];
         bin.count++;
         bin.box.grow(r.box);
       }
+      return set;
     };
-    auto empty_bins = [n_bins](Bins& set) {
-      for (int b = 0; b < n_bins; ++b) {
-        set.bin[b].box = BasicBox<R>();
-        set.bin[b].count = 0;
+    auto merge = [n_bins](Bins& into, const Bins& from) {
+      for (int k = 0; k < n_bins; ++k) {
+        into.bin[k].count += from.bin[k].count;
+        into.bin[k].box.grow(from.bin[k].box);
       }
     };
-    Bins set;
-    if (all_threads) {
-      auto pass = [&](int b, int e) {
-        Bins local;
-        empty_bins(local);
-        bin_pass(b, e, local);
-        return local;
-      };
-      auto merge = [n_bins](Bins& into, const Bins& from) {
-        for (int b = 0; b < n_bins; ++b) {
-          into.bin[b].count += from.bin[b].count;
-          into.bin[b].box.grow(from.bin[b].box);
-        }
-      };
-      set = reduce_range<Bins>(begin, end, true, pass, merge);
-    } else {
-      empty_bins(set);
-      bin_pass(begin, end, set);
-    }
-    Bin* bins = set.bin;
+    Bins set = reduce_range<Bins>(begin, end, all_threads, bin_pass, merge);
+    const Bin* bins = set.bin;
     // Sweep from the right for the right-side areas, then from the left.
     double best_cost = std::numeric_limits<double>::infinity();
     int split = -1;
