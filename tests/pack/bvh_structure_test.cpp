@@ -239,12 +239,7 @@ TEST_CASE("bvh: the root's passes on every thread give what one pass gives") {
   const int n_spheres = static_cast<int>(ps.spheres.size());
   const int n = n_spheres + static_cast<int>(ps.triangles.size());
   REQUIRE(n > 3 * twinray::bvh::kParallelPassPrims);
-  twinray::LargeVector<twinray::bvh::PrimRef<float>> refs(static_cast<size_t>(n));
-  for (int i = 0; i < n; ++i) {
-    refs[static_cast<size_t>(i)].id = i;
-    refs[static_cast<size_t>(i)].box =
-        twinray::bvh::primitive_box<float>(ps.spheres, ps.triangles, i);
-  }
+  auto refs = twinray::bvh::primitive_refs<float>(ps.spheres, ps.triangles);
   // Boxes compared bit for bit (a -0 for a +0 would count).
   auto same = [](const twinray::bvh::Box& a, const twinray::bvh::Box& b) {
     return std::memcmp(a.lo, b.lo, sizeof a.lo) == 0 && std::memcmp(a.hi, b.hi, sizeof a.hi) == 0;

@@ -689,6 +689,22 @@ BasicBox<T> primitive_box(const LargeVector<typename device::Code<T>::Sphere>& s
   return rounded;
 }
 
+// The builder's record of every primitive (spheres first, then triangles): its id and
+// its box (primitive_box), filled on every thread.
+template <class T>
+LargeVector<PrimRef<T>> primitive_refs(
+    const LargeVector<typename device::Code<T>::Sphere>& spheres,
+    const LargeVector<typename device::Code<T>::Triangle>& triangles) {
+  const int n = static_cast<int>(spheres.size() + triangles.size());
+  LargeVector<PrimRef<T>> refs(static_cast<size_t>(n));
+  parallel_for(n, 4096, [&](int i) {
+    PrimRef<T>& r = refs[static_cast<size_t>(i)];
+    r.id = i;
+    r.box = primitive_box<T>(spheres, triangles, i);
+  });
+  return refs;
+}
+
 // Builds the binary SAH tree of these spheres and triangles; touches nothing else.
 // Runs on the threads of parallel_for (core/parallel.hpp); the result does not depend
 // on how many.
@@ -700,12 +716,7 @@ BinaryBvh<T> build_binary(const LargeVector<typename device::Code<T>::Sphere>& s
   const int n = n_spheres + static_cast<int>(triangles.size());
   BinaryBvh<T> bvh;
   if (n == 0) return bvh;
-  LargeVector<PrimRef<T>> refs(static_cast<size_t>(n));
-  parallel_for(n, 4096, [&](int i) {
-    PrimRef<T>& r = refs[static_cast<size_t>(i)];
-    r.id = i;
-    r.box = primitive_box<T>(spheres, triangles, i);
-  });
+  LargeVector<PrimRef<T>> refs = primitive_refs<T>(spheres, triangles);
   detail::Builder<Node, T> builder(refs, traversal_cost(n_spheres, n - n_spheres));
   Box root_box, root_cbox;
   detail::bounds_of(refs, 0, n, &root_box, &root_cbox, true);
