@@ -278,6 +278,46 @@ TEST_CASE("bvh: the root's passes on every thread give what one pass gives") {
   }
 }
 
+TEST_CASE("bvh: a split hands each child the bounds of the primitives it holds") {
+  // The children's boxes and centroid bounds come from the bins, not from a pass over
+  // each side: they must be what such a pass finds, for nodes with fewer primitives
+  // than bins, with all of them, and at the root's parallel passes.
+  auto ps = pack_with_bvh(bvh_test::random_scene<float>(3000, 2000, 23u), 0, 2);
+  const int n = static_cast<int>(ps.spheres.size() + ps.triangles.size());
+  auto refs = twinray::bvh::primitive_refs<float>(ps.spheres, ps.triangles);
+  auto same = [](const twinray::bvh::Box& a, const twinray::bvh::Box& b) {
+    return std::memcmp(a.lo, b.lo, sizeof a.lo) == 0 && std::memcmp(a.hi, b.hi, sizeof a.hi) == 0;
+  };
+  using Builder = twinray::bvh::detail::Builder<twinray::bvh::BinaryNode<float>, float>;
+  int splits = 0;
+  for (int count : {9, 40, 1000, n - 100})
+    for (bool all_threads : {false, true}) {
+      CAPTURE(count);
+      CAPTURE(all_threads);
+      const int begin = 100, end = begin + count;
+      REQUIRE(end <= n);
+      twinray::bvh::Box box, cbox;
+      twinray::bvh::detail::bounds_of(refs, begin, end, &box, &cbox);
+      auto split_refs = refs;
+      Builder builder(split_refs, 2.0);
+      twinray::bvh::Box child_box[2], child_cbox[2];
+      const int mid = builder.sah_split(begin, end, box, cbox, child_box, child_cbox, all_threads);
+      if (mid < 0) continue;  // a leaf: no children
+      ++splits;
+      REQUIRE(mid > begin);
+      REQUIRE(mid < end);
+      const int side_begin[2] = {begin, mid}, side_end[2] = {mid, end};
+      for (int side = 0; side < 2; ++side) {
+        twinray::bvh::Box pass_box, pass_cbox;
+        twinray::bvh::detail::bounds_of(split_refs, side_begin[side], side_end[side], &pass_box,
+                                        &pass_cbox);
+        CHECK(same(child_box[side], pass_box));
+        CHECK(same(child_cbox[side], pass_cbox));
+      }
+    }
+  CHECK(splits >= 6);
+}
+
 TEST_CASE("bvh: a large scene's primitives and nodes ask for huge pages") {
   if (!twinray::detail::kMapsHugePages || !twinray_test::page_flags_known()) {
     MESSAGE("skipped: no transparent huge pages or no /proc/self/smaps here");

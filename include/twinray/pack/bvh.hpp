@@ -319,25 +319,6 @@ Acc reduce_range(int begin, int end, bool all_threads, const Pass& pass, const M
   return parts[0];
 }
 
-// Centroid bounds of refs[begin, end), grown in R and converted once (exactly).
-template <class R>
-Box centroid_bounds(const LargeVector<PrimRef<R>>& refs, int begin, int end,
-                    bool all_threads = false) {
-  auto pass = [&refs](int b, int e) {
-    BasicBox<R> cb;
-    for (int i = b; i < e; ++i) {
-      R c[3];
-      refs[static_cast<size_t>(i)].centroid(c);
-      cb.grow(c);
-    }
-    return cb;
-  };
-  auto merge = [](BasicBox<R>& into, const BasicBox<R>& from) { into.grow(from); };
-  Box out;
-  out.grow(reduce_range<BasicBox<R>>(begin, end, all_threads, pass, merge));
-  return out;
-}
-
 // Bounds and centroid bounds of refs[begin, end), in one pass.
 template <class R>
 void bounds_of(const LargeVector<PrimRef<R>>& refs, int begin, int end, Box* box, Box* cbox,
@@ -550,9 +531,32 @@ struct Builder {
   int sah_split(int begin, int end, const Box& box, const Box& cbox, Box child_box[2],
                 Box child_cbox[2], bool all_threads = false) {
     int n = end - begin;
+    // Each bin bounds its primitives and their centroids: the children's centroid
+    // bounds are then unions of bins, as their boxes are, and need no pass of their
+    // own after the partition. Four lanes per bound, the fourth unused, so that g++
+    // grows a bin with whole-vector minima and maxima (vminps/vmaxps): as scalars,
+    // twelve loads and stores per primitive, the binning cost more than the pass it
+    // saves (docs/performance.md, "BVH build").
     struct Bin {
-      BasicBox<R> box;
+      R lo[4], hi[4], clo[4], chi[4];
       int count;
+      // The bin grown by a box [plo, phi] and a centroid box [pclo, pchi], lane by
+      // lane, in one loop (g++ left two loops of this shape scalar).
+      void grow(const R* plo, const R* phi, const R* pclo, const R* pchi) {
+        for (int l = 0; l < 4; ++l) {
+          lo[l] = plo[l] < lo[l] ? plo[l] : lo[l];
+          hi[l] = phi[l] > hi[l] ? phi[l] : hi[l];
+          clo[l] = pclo[l] < clo[l] ? pclo[l] : clo[l];
+          chi[l] = pchi[l] > chi[l] ? pchi[l] : chi[l];
+        }
+      }
+      BasicBox<R> box() const { return bounds(lo, hi); }
+      BasicBox<R> cbox() const { return bounds(clo, chi); }
+      static BasicBox<R> bounds(const R* l, const R* h) {
+        BasicBox<R> b;
+        for (int k = 0; k < 3; ++k) b.lo[k] = l[k], b.hi[k] = h[k];
+        return b;
+      }
     };
     struct Bins {
       Bin bin[kBins];
@@ -573,27 +577,37 @@ struct Builder {
     const double lo = cbox.lo[a];
     // The one bin computation: binning and the partition below both call it, so each
     // primitive goes to the side it was counted on.
-    auto bin_of = [&](const PrimRef<R>& r) {
-      return std::min(n_bins - 1, static_cast<int>((r.centroid(a) - lo) * scale));
+    auto bin_of_centroid = [&](R centroid) {
+      return std::min(n_bins - 1, static_cast<int>((centroid - lo) * scale));
     };
+    auto bin_of = [&](const PrimRef<R>& r) { return bin_of_centroid(r.centroid(a)); };
     auto bin_pass = [&](int b, int e) {
       Bins set;
       for (int k = 0; k < n_bins; ++k) {
-        set.bin[k].box = BasicBox<R>();
+        for (int l = 0; l < 4; ++l) {
+          set.bin[k].lo[l] = set.bin[k].clo[l] = std::numeric_limits<R>::infinity();
+          set.bin[k].hi[l] = set.bin[k].chi[l] = -std::numeric_limits<R>::infinity();
+        }
         set.bin[k].count = 0;
       }
       for (int i = b; i < e; ++i) {
-        const PrimRef<R>& r = refs[static_cast<size_t>(i)];
-        Bin& bin = set.bin[bin_of(r)];
+        const BasicBox<R>& box = refs[static_cast<size_t>(i)].box;
+        const R lo4[4] = {box.lo[0], box.lo[1], box.lo[2], box.lo[0]};
+        const R hi4[4] = {box.hi[0], box.hi[1], box.hi[2], box.hi[0]};
+        R c[4];  // c[a] is PrimRef::centroid(a): the same operations
+        for (int l = 0; l < 4; ++l) c[l] = R(0.5) * lo4[l] + R(0.5) * hi4[l];
+        Bin& bin = set.bin[bin_of_centroid(c[a])];
         bin.count++;
-        bin.box.grow(r.box);
+        bin.grow(lo4, hi4, c, c);
       }
       return set;
     };
     auto merge = [n_bins](Bins& into, const Bins& from) {
       for (int k = 0; k < n_bins; ++k) {
-        into.bin[k].count += from.bin[k].count;
-        into.bin[k].box.grow(from.bin[k].box);
+        Bin& t = into.bin[k];
+        const Bin& f = from.bin[k];
+        t.count += f.count;
+        t.grow(f.lo, f.hi, f.clo, f.chi);
       }
     };
     Bins set = reduce_range<Bins>(begin, end, all_threads, bin_pass, merge);
@@ -606,7 +620,7 @@ struct Builder {
     Box acc;
     int count = 0;
     for (int b = n_bins - 1; b > 0; --b) {
-      acc.grow(bins[b].box);
+      acc.grow(bins[b].box());
       count += bins[b].count;
       right_area[b] = acc.half_area();
       right_count[b] = count;
@@ -614,7 +628,7 @@ struct Builder {
     acc = Box();
     count = 0;
     for (int b = 0; b < n_bins - 1; ++b) {
-      acc.grow(bins[b].box);
+      acc.grow(bins[b].box());
       count += bins[b].count;
       if (count == 0 || right_count[b + 1] == 0) continue;
       double cost = acc.half_area() * count + right_area[b + 1] * right_count[b + 1];
@@ -628,15 +642,22 @@ struct Builder {
     if (split < 0) return no_sah_split();  // every primitive fell in one bin
     double split_cost = traversal_cost + (area > 0 ? best_cost / area : static_cast<double>(n));
     if (n <= kMaxLeafSize && leaf_cost <= split_cost) return -1;
-    // The children's boxes are unions of their bins' boxes.
-    child_box[0] = child_box[1] = Box();
-    for (int b = 0; b < n_bins; ++b) child_box[b <= split ? 0 : 1].grow(bins[b].box);
-    // Partition by bin_of, then each side's centroid bounds.
+    // The children's boxes and centroid bounds are unions of their bins' (grown in R,
+    // converted once: min and max are exact, so these are the bounds a pass over each
+    // side would find).
+    BasicBox<R> side_box[2], side_cbox[2];
+    for (int b = 0; b < n_bins; ++b) {
+      side_box[b <= split ? 0 : 1].grow(bins[b].box());
+      side_cbox[b <= split ? 0 : 1].grow(bins[b].cbox());
+    }
+    for (int side = 0; side < 2; ++side) {
+      child_box[side] = child_cbox[side] = Box();
+      child_box[side].grow(side_box[side]);
+      child_cbox[side].grow(side_cbox[side]);
+    }
+    // Partition by bin_of, the function that counted each primitive in its bin.
     auto left_side = [&](const PrimRef<R>& r) { return bin_of(r) <= split; };
-    const int i = block_partition(refs, begin, end, left_side);
-    child_cbox[0] = centroid_bounds(refs, begin, i, all_threads);
-    child_cbox[1] = centroid_bounds(refs, i, end, all_threads);
-    return i;
+    return block_partition(refs, begin, end, left_side);
   }
 };
 
