@@ -3,6 +3,7 @@
 // and be the same bytes at any thread count.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cstring>
 #include <vector>
 
@@ -126,5 +127,55 @@ TEST_CASE_TEMPLATE("pack: primitives in object order, the same at any thread cou
     CHECK(same_bytes(many.triangles, one.triangles));
     CHECK(same_bytes(many.planes, one.planes));
     CHECK(same_bytes(many.triangle_attrs, one.triangle_attrs));
+  }
+}
+
+TEST_CASE_TEMPLATE("pack: with a BVH, the same primitives and attributes in leaf order", T, float,
+                   double) {
+  // With a BVH the primitives are packed straight into the order the leaves list them,
+  // with no copy in object order: each must still be the flat pack's primitive, with
+  // its own attributes, and the result the same bytes at any thread count.
+  const Scene<T> scene = mixed_scene<T>();
+  const twinray::PackedScene<T> flat = pack_flat(scene, 1);
+  // Each element's bytes, sorted: equal multisets of primitives (with attributes).
+  auto sorted_records = [](const auto& prims, const auto* attrs) {
+    std::vector<std::vector<unsigned char>> records;
+    for (size_t k = 0; k < prims.size(); ++k) {
+      const auto* p = reinterpret_cast<const unsigned char*>(&prims[k]);
+      std::vector<unsigned char> r(p, p + sizeof prims[k]);
+      if (attrs) {
+        const auto* a = reinterpret_cast<const unsigned char*>(&(*attrs)[k]);
+        r.insert(r.end(), a, a + sizeof(*attrs)[k]);
+      }
+      records.push_back(std::move(r));
+    }
+    std::sort(records.begin(), records.end());
+    return records;
+  };
+  REQUIRE(flat.triangle_attrs.size() == flat.triangles.size());
+  const auto flat_spheres =
+      sorted_records(flat.spheres, static_cast<const decltype(flat.spheres)*>(nullptr));
+  const auto flat_triangles = sorted_records(flat.triangles, &flat.triangle_attrs);
+  twinray::PackOptions options;
+  options.bvh = twinray::BvhPolicy::Always;
+  twinray::set_thread_count(1);
+  const twinray::PackedScene<T> one = twinray::pack_scene(scene, options);
+  twinray::set_thread_count(0);
+  REQUIRE((one.features & TR_F_BVH) != 0u);
+  REQUIRE(one.triangle_attrs.size() == one.triangles.size());
+  CHECK(same_bytes(one.planes, flat.planes));
+  CHECK(sorted_records(one.spheres, static_cast<const decltype(one.spheres)*>(nullptr)) ==
+        flat_spheres);
+  CHECK(sorted_records(one.triangles, &one.triangle_attrs) == flat_triangles);
+  CHECK_FALSE(same_bytes(one.triangles, flat.triangles));  // reordered, not object order
+  for (int threads : {2, 3}) {
+    CAPTURE(threads);
+    twinray::set_thread_count(threads);
+    const twinray::PackedScene<T> many = twinray::pack_scene(scene, options);
+    twinray::set_thread_count(0);
+    CHECK(same_bytes(many.spheres, one.spheres));
+    CHECK(same_bytes(many.triangles, one.triangles));
+    CHECK(same_bytes(many.triangle_attrs, one.triangle_attrs));
+    CHECK(same_bytes(many.bvh_prims, one.bvh_prims));
   }
 }

@@ -683,31 +683,41 @@ struct Bvh {
   int node_count() const { return nodes.size(); }
 };
 
-// The box of primitive i (spheres first, then triangles), computed in double and
-// rounded outward to T, so it contains the primitive as the tests see it.
+// A primitive's box, computed in double and rounded outward to T, so it contains the
+// primitive as the tests see it.
 template <class T>
-BasicBox<T> primitive_box(const LargeVector<typename device::Code<T>::Sphere>& spheres,
-                          const LargeVector<typename device::Code<T>::Triangle>& triangles, int i) {
-  const int n_spheres = static_cast<int>(spheres.size());
-  Box box;
-  if (i < n_spheres) {
-    const auto& s = spheres[static_cast<size_t>(i)];
-    double c[3] = {s.cx, s.cy, s.cz}, rad = s.radius;
-    for (int a = 0; a < 3; ++a) {
-      box.lo[a] = c[a] - rad;
-      box.hi[a] = c[a] + rad;
-    }
-  } else {
-    const auto& t = triangles[static_cast<size_t>(i - n_spheres)];
-    double p[3][3] = {{t.p0x, t.p0y, t.p0z}, {t.p1x, t.p1y, t.p1z}, {t.p2x, t.p2y, t.p2z}};
-    for (auto& v : p) box.grow(v);
-  }
+BasicBox<T> rounded_box(const Box& box) {
   BasicBox<T> rounded;
   for (int a = 0; a < 3; ++a) {
     rounded.lo[a] = round_down<T>(box.lo[a]);
     rounded.hi[a] = round_up<T>(box.hi[a]);
   }
   return rounded;
+}
+template <class T>
+BasicBox<T> primitive_box(const typename device::Code<T>::Sphere& s) {
+  double c[3] = {s.cx, s.cy, s.cz}, rad = s.radius;
+  Box box;
+  for (int a = 0; a < 3; ++a) {
+    box.lo[a] = c[a] - rad;
+    box.hi[a] = c[a] + rad;
+  }
+  return rounded_box<T>(box);
+}
+template <class T>
+BasicBox<T> primitive_box(const typename device::Code<T>::Triangle& t) {
+  double p[3][3] = {{t.p0x, t.p0y, t.p0z}, {t.p1x, t.p1y, t.p1z}, {t.p2x, t.p2y, t.p2z}};
+  Box box;
+  for (auto& v : p) box.grow(v);
+  return rounded_box<T>(box);
+}
+// The box of primitive i (spheres first, then triangles).
+template <class T>
+BasicBox<T> primitive_box(const LargeVector<typename device::Code<T>::Sphere>& spheres,
+                          const LargeVector<typename device::Code<T>::Triangle>& triangles, int i) {
+  const int n_spheres = static_cast<int>(spheres.size());
+  return i < n_spheres ? primitive_box<T>(spheres[static_cast<size_t>(i)])
+                       : primitive_box<T>(triangles[static_cast<size_t>(i - n_spheres)]);
 }
 
 // The builder's record of every primitive (spheres first, then triangles): its id and
@@ -726,18 +736,16 @@ LargeVector<PrimRef<T>> primitive_refs(
   return refs;
 }
 
-// Builds the binary SAH tree of these spheres and triangles; touches nothing else.
+// Builds the binary SAH tree of the primitives `refs` records (ids 0 .. n_spheres - 1
+// spheres, the rest triangles, as primitive_refs numbers them); touches nothing else.
 // Runs on the threads of parallel_for (core/parallel.hpp); the result does not depend
 // on how many.
 template <class T>
-BinaryBvh<T> build_binary(const LargeVector<typename device::Code<T>::Sphere>& spheres,
-                          const LargeVector<typename device::Code<T>::Triangle>& triangles) {
+BinaryBvh<T> build_binary(LargeVector<PrimRef<T>> refs, int n_spheres) {
   using Node = BinaryNode<T>;
-  const int n_spheres = static_cast<int>(spheres.size());
-  const int n = n_spheres + static_cast<int>(triangles.size());
+  const int n = static_cast<int>(refs.size());
   BinaryBvh<T> bvh;
   if (n == 0) return bvh;
-  LargeVector<PrimRef<T>> refs = primitive_refs<T>(spheres, triangles);
   detail::Builder<Node, T> builder(refs, traversal_cost(n_spheres, n - n_spheres));
   Box root_box, root_cbox;
   detail::bounds_of(refs, 0, n, &root_box, &root_cbox, true);
@@ -747,6 +755,13 @@ BinaryBvh<T> build_binary(const LargeVector<typename device::Code<T>::Sphere>& s
   bvh.order.resize(static_cast<size_t>(n));
   for (int i = 0; i < n; ++i) bvh.order[static_cast<size_t>(i)] = refs[static_cast<size_t>(i)].id;
   return bvh;
+}
+
+// The binary tree over the packed spheres and triangles.
+template <class T>
+BinaryBvh<T> build_binary(const LargeVector<typename device::Code<T>::Sphere>& spheres,
+                          const LargeVector<typename device::Code<T>::Triangle>& triangles) {
+  return build_binary<T>(primitive_refs<T>(spheres, triangles), static_cast<int>(spheres.size()));
 }
 
 namespace detail {
@@ -880,14 +895,18 @@ Bvh<T> collapse(const BinaryBvh<T>& binary, int width,
   return out;
 }
 
-// Builds the `width`-wide BVH of these spheres and triangles (build_binary, collapse).
+// Builds the `width`-wide BVH of the primitives `refs` records (build_binary, collapse).
 template <class T>
-Bvh<T> build(const LargeVector<typename device::Code<T>::Sphere>& spheres,
-             const LargeVector<typename device::Code<T>::Triangle>& triangles, int width) {
-  BinaryBvh<T> binary = build_binary<T>(spheres, triangles);
+Bvh<T> build(LargeVector<PrimRef<T>> refs, int n_spheres, int width) {
+  BinaryBvh<T> binary = build_binary<T>(std::move(refs), n_spheres);
   Bvh<T> bvh = collapse(binary, width);
   bvh.order = std::move(binary.order);
   return bvh;
+}
+template <class T>
+Bvh<T> build(const LargeVector<typename device::Code<T>::Sphere>& spheres,
+             const LargeVector<typename device::Code<T>::Triangle>& triangles, int width) {
+  return build<T>(primitive_refs<T>(spheres, triangles), static_cast<int>(spheres.size()), width);
 }
 
 // Depth, node and leaf counts of the binary tree (for tests).

@@ -197,7 +197,8 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
   }
   // Objects in chunks on every thread: first each chunk's counts (a scan gives every
   // chunk its place in each array), then the copies. The arrays list primitives in
-  // object order, whatever the thread count.
+  // object order (with a BVH, in the order of its leaves: below), whatever the thread
+  // count.
   constexpr size_t kChunk = 4096;
   const size_t n_objects = scene.objects.size();
   const size_t n_chunks = block_count(n_objects, kChunk);
@@ -226,79 +227,119 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
     start[c].triangles += start[c - 1].triangles;
     start[c].planes += start[c - 1].planes;
   }
-  ps.spheres.resize(start[n_chunks].spheres);
-  ps.triangles.resize(start[n_chunks].triangles);
-  ps.planes.resize(start[n_chunks].planes);
-  if (with_attrs) ps.triangle_attrs.resize(start[n_chunks].triangles);  // flags 0: flat, no uv
-  parallel_for_blocks(n_objects, kChunk, [&](size_t chunk, size_t begin, size_t end) {
-    Counts at = start[chunk];
-    for (size_t i = begin; i < end; ++i) {
-      const int object = static_cast<int>(i);
-      const Object<T>& o = scene.objects[i];
-      auto triangle = [object](const glm::vec<3, T>& a, const glm::vec<3, T>& b,
-                               const glm::vec<3, T>& c, int material) {
-        return typename device::Code<T>::Triangle{a.x, a.y, a.z, b.x,      b.y,   b.z,
-                                                  c.x, c.y, c.z, material, object};
-      };
-      if (auto* s = std::get_if<Sphere<T>>(&o)) {
-        ps.spheres[at.spheres++] = {s->center.x, s->center.y, s->center.z, s->radius,
-                                    s->material, object,      0,           0};
-      } else if (auto* t = std::get_if<Triangle<T>>(&o)) {
-        ps.triangles[at.triangles++] =
-            triangle(t->vertices[0], t->vertices[1], t->vertices[2], t->material);
-      } else if (auto* p = std::get_if<Plane<T>>(&o)) {
-        glm::vec<3, T> n = glm::normalize(p->normal);
-        ps.planes[at.planes++] = {p->point.x, p->point.y, p->point.z,  n.x,
-                                  n.y,        n.z,        p->material, object};
-      } else if (auto* m = std::get_if<Mesh<T>>(&o)) {
-        // A mesh's faces on every thread too: a scene is often one big mesh.
-        const size_t first = at.triangles;
-        parallel_for(static_cast<int>(m->triangles.size()), 8192, [&](int face) {
-          const size_t f = static_cast<size_t>(face);
-          const auto& v = m->triangles[f];
-          ps.triangles[first + f] =
-              triangle(m->vertices[v[0]], m->vertices[v[1]], m->vertices[v[2]], m->material_of(f));
-          if (with_attrs) detail::pack_attributes(*m, f, ps.triangle_attrs[first + f]);
-        });
-        at.triangles += m->triangles.size();
+  const size_t n_spheres = start[n_chunks].spheres, n_triangles = start[n_chunks].triangles;
+  // Every primitive of every object, packed, in chunks of objects on every thread (a big
+  // mesh's faces split between the threads too): put_sphere(k, sphere) for the k-th
+  // sphere in object order, put_triangle(k, triangle, mesh, face) for the k-th triangle
+  // (mesh null for a lone triangle), put_plane(k, plane).
+  auto for_each_primitive = [&](const auto& put_sphere, const auto& put_triangle,
+                                const auto& put_plane) {
+    parallel_for_blocks(n_objects, kChunk, [&](size_t chunk, size_t begin, size_t end) {
+      Counts at = start[chunk];
+      for (size_t i = begin; i < end; ++i) {
+        const int object = static_cast<int>(i);
+        const Object<T>& o = scene.objects[i];
+        auto triangle = [object](const glm::vec<3, T>& a, const glm::vec<3, T>& b,
+                                 const glm::vec<3, T>& c, int material) {
+          return typename device::Code<T>::Triangle{a.x, a.y, a.z, b.x,      b.y,   b.z,
+                                                    c.x, c.y, c.z, material, object};
+        };
+        if (auto* s = std::get_if<Sphere<T>>(&o)) {
+          put_sphere(at.spheres++,
+                     typename device::Code<T>::Sphere{s->center.x, s->center.y, s->center.z,
+                                                      s->radius, s->material, object, 0, 0});
+        } else if (auto* t = std::get_if<Triangle<T>>(&o)) {
+          put_triangle(at.triangles++,
+                       triangle(t->vertices[0], t->vertices[1], t->vertices[2], t->material),
+                       static_cast<const Mesh<T>*>(nullptr), size_t(0));
+        } else if (auto* p = std::get_if<Plane<T>>(&o)) {
+          glm::vec<3, T> n = glm::normalize(p->normal);
+          put_plane(at.planes++,
+                    typename device::Code<T>::Plane{p->point.x, p->point.y, p->point.z, n.x, n.y,
+                                                    n.z, p->material, object});
+        } else if (auto* m = std::get_if<Mesh<T>>(&o)) {
+          const size_t first = at.triangles;
+          parallel_for(static_cast<int>(m->triangles.size()), 8192, [&](int face) {
+            const size_t f = static_cast<size_t>(face);
+            const auto& v = m->triangles[f];
+            put_triangle(first + f,
+                         triangle(m->vertices[v[0]], m->vertices[v[1]], m->vertices[v[2]],
+                                  m->material_of(f)),
+                         m, f);
+          });
+          at.triangles += m->triangles.size();
+        }
       }
-    }
-  });
+    });
+  };
+  // A triangle into slot `to` of the packed arrays, with its attributes if any.
+  auto store_triangle = [&](size_t to, const typename device::Code<T>::Triangle& t,
+                            const Mesh<T>* m, size_t f) {
+    ps.triangles[to] = t;
+    if (with_attrs && m) detail::pack_attributes(*m, f, ps.triangle_attrs[to]);
+  };
+  auto store_plane = [&](size_t k, const typename device::Code<T>::Plane& p) { ps.planes[k] = p; };
+  ps.planes.resize(start[n_chunks].planes);
 
   const bool with_bvh =
-      bvh == BvhPolicy::Always ||
-      (bvh == BvhPolicy::Auto && bvh::worth_building(static_cast<long long>(ps.spheres.size()),
-                                                     static_cast<long long>(ps.triangles.size())));
-  if (with_bvh && !(ps.spheres.empty() && ps.triangles.empty())) {
-    bvh::Bvh<T> tree = bvh::build<T>(ps.spheres, ps.triangles, options.bvh_width);
-    // Spheres and triangles are reordered into the order the leaves list them, so a
-    // leaf's primitives lie side by side in memory and a ray that walks the tree reads
-    // them in order (hits report the object id stored in the primitive, which moves
-    // with it). bvh_prims then runs through each array in order.
-    const int n_spheres = static_cast<int>(ps.spheres.size());
-    // Where each leaf-order primitive goes (a scan), then the copies, which are
-    // independent and run on every thread (a million gathers of 36-48 bytes).
+      (n_spheres + n_triangles > 0) &&
+      (bvh == BvhPolicy::Always ||
+       (bvh == BvhPolicy::Auto && bvh::worth_building(static_cast<long long>(n_spheres),
+                                                      static_cast<long long>(n_triangles))));
+  auto allocate_bounded = [&] {
+    ps.spheres.resize(n_spheres);
+    ps.triangles.resize(n_triangles);
+    if (with_attrs) ps.triangle_attrs.resize(n_triangles);  // flags 0: flat, no uv
+  };
+  if (!with_bvh) {
+    allocate_bounded();
+    for_each_primitive([&](size_t k, const auto& s) { ps.spheres[k] = s; }, store_triangle,
+                       store_plane);
+  } else {
+    // The BVH is built from each primitive's box first; the primitives are then placed
+    // in the order the leaves list them, so a leaf's primitives lie side by side in
+    // memory and a ray that walks the tree reads them in order (hits report the object
+    // id stored in the primitive, which moves with it). bvh_prims then runs through
+    // each array in order. Triangles are packed a second time, straight into their
+    // slots: no copy in object order (44 MB of fresh pages for a million). Spheres are
+    // packed once, in object order, and moved: a second pass over a million sphere
+    // objects (a few hundred MB of variants) took longer than the copy.
+    const int n_sph = static_cast<int>(n_spheres);
+    LargeVector<bvh::PrimRef<T>> refs(n_spheres + n_triangles);
+    LargeVector<typename device::Code<T>::Sphere> spheres_by_id(n_spheres);
+    for_each_primitive(
+        [&](size_t k, const auto& s) {
+          spheres_by_id[k] = s;
+          refs[k] = {bvh::primitive_box<T>(s), static_cast<int>(k)};
+        },
+        [&](size_t k, const auto& t, const Mesh<T>*, size_t) {
+          const size_t id = n_spheres + k;
+          refs[id] = {bvh::primitive_box<T>(t), static_cast<int>(id)};
+        },
+        store_plane);
+    bvh::Bvh<T> tree = bvh::build<T>(std::move(refs), n_sph, options.bvh_width);
+    // Where each leaf-order primitive goes (a scan), and each primitive id's slot.
     ps.bvh_prims.resize(tree.order.size());
     int sphere_at = 0, triangle_at = 0;
     for (size_t i = 0; i < tree.order.size(); ++i)
-      ps.bvh_prims[i] = tree.order[i] < n_spheres ? sphere_at++ : n_spheres + triangle_at++;
-    LargeVector<typename device::Code<T>::Sphere> spheres(ps.spheres.size());
-    LargeVector<typename device::Code<T>::Triangle> triangles(ps.triangles.size());
-    LargeVector<typename device::Code<T>::TriangleAttr> attrs(ps.triangle_attrs.size());
+      ps.bvh_prims[i] = tree.order[i] < n_sph ? sphere_at++ : n_sph + triangle_at++;
+    LargeVector<int> slot(tree.order.size());
     parallel_for(static_cast<int>(tree.order.size()), 8192, [&](int i) {
-      const int id = tree.order[static_cast<size_t>(i)];
-      const size_t to = static_cast<size_t>(ps.bvh_prims[static_cast<size_t>(i)]);
-      if (id < n_spheres) {
-        spheres[to] = ps.spheres[static_cast<size_t>(id)];
-        return;
-      }
-      const size_t from = static_cast<size_t>(id - n_spheres);
-      triangles[to - static_cast<size_t>(n_spheres)] = ps.triangles[from];
-      if (with_attrs) attrs[to - static_cast<size_t>(n_spheres)] = ps.triangle_attrs[from];
+      slot[static_cast<size_t>(tree.order[static_cast<size_t>(i)])] =
+          ps.bvh_prims[static_cast<size_t>(i)];
     });
-    ps.spheres.swap(spheres);
-    ps.triangles.swap(triangles);
-    ps.triangle_attrs.swap(attrs);
+    allocate_bounded();
+    parallel_for(n_sph, 8192, [&](int k) {
+      ps.spheres[static_cast<size_t>(slot[static_cast<size_t>(k)])] =
+          spheres_by_id[static_cast<size_t>(k)];
+    });
+    if (n_triangles > 0)
+      for_each_primitive([](size_t, const auto&) {},
+                         [&](size_t k, const auto& t, const Mesh<T>* m, size_t f) {
+                           store_triangle(static_cast<size_t>(slot[n_spheres + k]) - n_spheres, t,
+                                          m, f);
+                         },
+                         [](size_t, const auto&) {});  // planes: packed above
     ps.bvh_nodes = std::move(tree.nodes);
   }
   if (!ps.spheres.empty()) ps.features |= TR_F_SPHERES;
