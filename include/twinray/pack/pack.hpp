@@ -303,7 +303,8 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
     // each array in order. Triangles are packed a second time, straight into their
     // slots: no copy in object order (44 MB of fresh pages for a million). Spheres are
     // packed once, in object order, and moved: a second pass over a million sphere
-    // objects (a few hundred MB of variants) took longer than the copy.
+    // objects reads a few hundred MB of variants again, and measured no faster than
+    // the copy (docs/performance.md, "BVH build").
     const int n_sph = static_cast<int>(n_spheres);
     LargeVector<bvh::PrimRef<T>> refs(n_spheres + n_triangles);
     LargeVector<typename device::Code<T>::Sphere> spheres_by_id(n_spheres);
