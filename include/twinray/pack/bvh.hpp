@@ -245,9 +245,12 @@ struct PrimRef {
   BasicBox<R> box;
   int id;
   void centroid(R c[3]) const {
-    for (int a = 0; a < 3; ++a) c[a] = R(0.5) * box.lo[a] + R(0.5) * box.hi[a];
+    for (int a = 0; a < 3; ++a) c[a] = midpoint(box.lo[a], box.hi[a]);
   }
-  R centroid(int a) const { return R(0.5) * box.lo[a] + R(0.5) * box.hi[a]; }
+  R centroid(int a) const { return midpoint(box.lo[a], box.hi[a]); }
+  // The one centroid formula: binning, partitioning and the centroid bounds must agree
+  // on it to the bit.
+  static R midpoint(R lo, R hi) { return R(0.5) * lo + R(0.5) * hi; }
 };
 
 // The neighbour of r toward -inf (toward = -1) or +inf (+1), as std::nextafter gives it,
@@ -594,8 +597,8 @@ struct Builder {
         const BasicBox<R>& box = refs[static_cast<size_t>(i)].box;
         const R lo4[4] = {box.lo[0], box.lo[1], box.lo[2], box.lo[0]};
         const R hi4[4] = {box.hi[0], box.hi[1], box.hi[2], box.hi[0]};
-        R c[4];  // c[a] is PrimRef::centroid(a): the same operations
-        for (int l = 0; l < 4; ++l) c[l] = R(0.5) * lo4[l] + R(0.5) * hi4[l];
+        R c[4];  // c[a] is PrimRef::centroid(a)
+        for (int l = 0; l < 4; ++l) c[l] = PrimRef<R>::midpoint(lo4[l], hi4[l]);
         Bin& bin = set.bin[bin_of_centroid(c[a])];
         bin.count++;
         bin.grow(lo4, hi4, c, c);
