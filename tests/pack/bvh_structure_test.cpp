@@ -318,6 +318,73 @@ TEST_CASE("bvh: a split hands each child the bounds of the primitives it holds")
   CHECK(splits >= 6);
 }
 
+TEST_CASE("bvh: a split takes the cheapest bin boundary") {
+  // The SAH as the builder states it: along the widest centroid axis, min(n, kBins)
+  // bins of equal width; the cost of the boundary after bin k is
+  // area(left) count(left) + area(right) count(right), with both sides non-empty, and
+  // the first of equally cheap boundaries wins. Recomputed here over the primitives
+  // with boxes grown in double, so the builder's bins and sweep must agree with it.
+  using twinray::bvh::Box;
+  auto ps = pack_with_bvh(bvh_test::random_scene<float>(3000, 2000, 29u), 0, 2);
+  const int n = static_cast<int>(ps.spheres.size() + ps.triangles.size());
+  auto refs = twinray::bvh::primitive_refs<float>(ps.spheres, ps.triangles);
+  using Builder = twinray::bvh::detail::Builder<twinray::bvh::BinaryNode<float>, float>;
+  for (int count : {9, 15, 16, 17, 40, 1000, n - 100})
+    for (bool all_threads : {false, true}) {
+      CAPTURE(count);
+      CAPTURE(all_threads);
+      const int begin = 50, end = begin + count;
+      REQUIRE(end <= n);
+      Box box, cbox;
+      twinray::bvh::detail::bounds_of(refs, begin, end, &box, &cbox);
+      const int axis = Builder::widest_axis(cbox);
+      const int n_bins = std::min(twinray::bvh::kBins, count);
+      const double scale = n_bins / (cbox.hi[axis] - cbox.lo[axis]);
+      auto bin_of = [&](const twinray::bvh::PrimRef<float>& r) {
+        return std::min(n_bins - 1, static_cast<int>((r.centroid(axis) - cbox.lo[axis]) * scale));
+      };
+      double best_cost = std::numeric_limits<double>::infinity();
+      int best = -1;
+      for (int k = 0; k + 1 < n_bins; ++k) {
+        Box left, right;
+        int n_left = 0, n_right = 0;
+        for (int i = begin; i < end; ++i) {
+          const auto& r = refs[static_cast<size_t>(i)];
+          if (bin_of(r) <= k) {
+            left.grow(r.box);
+            ++n_left;
+          } else {
+            right.grow(r.box);
+            ++n_right;
+          }
+        }
+        if (n_left == 0 || n_right == 0) continue;
+        double cost = left.half_area() * n_left + right.half_area() * n_right;
+        if (cost < best_cost) best_cost = cost, best = k;
+      }
+      REQUIRE(best >= 0);
+      auto split_refs = refs;
+      Builder builder(split_refs, 2.0);
+      Box child_box[2], child_cbox[2];
+      const int mid = builder.sah_split(begin, end, box, cbox, child_box, child_cbox, all_threads);
+      REQUIRE(mid > begin);  // more than a leaf holds, or a split cheaper than the leaf
+      REQUIRE(mid < end);
+      int left_max = -1, right_min = n_bins;
+      for (int i = begin; i < mid; ++i)
+        left_max = std::max(left_max, bin_of(split_refs[static_cast<size_t>(i)]));
+      for (int i = mid; i < end; ++i)
+        right_min = std::min(right_min, bin_of(split_refs[static_cast<size_t>(i)]));
+      // The left side holds exactly the bins up to `best`.
+      CHECK(left_max <= best);
+      CHECK(right_min > best);
+      CHECK(mid - begin == [&] {
+        int k = 0;
+        for (int i = begin; i < end; ++i) k += bin_of(refs[static_cast<size_t>(i)]) <= best;
+        return k;
+      }());
+    }
+}
+
 TEST_CASE("bvh: a large scene's primitives and nodes ask for huge pages") {
   if (!twinray::detail::kMapsHugePages || !twinray_test::page_flags_known()) {
     MESSAGE("skipped: no transparent huge pages or no /proc/self/smaps here");

@@ -553,6 +553,23 @@ struct Builder {
           chi[l] = pchi[l] > chi[l] ? pchi[l] : chi[l];
         }
       }
+      void grow(const Bin& b) { grow(b.lo, b.hi, b.clo, b.chi); }
+      // The box alone grown by another bin's (the SAH sweep's accumulators).
+      void grow_box(const Bin& b) {
+        for (int l = 0; l < 4; ++l) {
+          lo[l] = b.lo[l] < lo[l] ? b.lo[l] : lo[l];
+          hi[l] = b.hi[l] > hi[l] ? b.hi[l] : hi[l];
+        }
+      }
+      static Bin empty() {
+        Bin b;
+        for (int l = 0; l < 4; ++l) {
+          b.lo[l] = b.clo[l] = std::numeric_limits<R>::infinity();
+          b.hi[l] = b.chi[l] = -std::numeric_limits<R>::infinity();
+        }
+        b.count = 0;
+        return b;
+      }
       BasicBox<R> box() const { return bounds(lo, hi); }
       BasicBox<R> cbox() const { return bounds(clo, chi); }
       static BasicBox<R> bounds(const R* l, const R* h) {
@@ -586,13 +603,7 @@ struct Builder {
     auto bin_of = [&](const PrimRef<R>& r) { return bin_of_centroid(r.centroid(a)); };
     auto bin_pass = [&](int b, int e) {
       Bins set;
-      for (int k = 0; k < n_bins; ++k) {
-        for (int l = 0; l < 4; ++l) {
-          set.bin[k].lo[l] = set.bin[k].clo[l] = std::numeric_limits<R>::infinity();
-          set.bin[k].hi[l] = set.bin[k].chi[l] = -std::numeric_limits<R>::infinity();
-        }
-        set.bin[k].count = 0;
-      }
+      for (int k = 0; k < n_bins; ++k) set.bin[k] = Bin::empty();
       for (int i = b; i < e; ++i) {
         const BasicBox<R>& box = refs[static_cast<size_t>(i)].box;
         const R lo4[4] = {box.lo[0], box.lo[1], box.lo[2], box.lo[0]};
@@ -610,35 +621,36 @@ struct Builder {
         Bin& t = into.bin[k];
         const Bin& f = from.bin[k];
         t.count += f.count;
-        t.grow(f.lo, f.hi, f.clo, f.chi);
+        t.grow(f);
       }
     };
     Bins set = reduce_range<Bins>(begin, end, all_threads, bin_pass, merge);
     const Bin* bins = set.bin;
-    // Sweep from the right for the right-side areas, then from the left.
+    // Sweep from the right for the right-side areas, then from the left. The sides'
+    // bounds grow in R lanes as the bins do and are converted for their areas only
+    // (min and max are exact, so the areas are those of bounds grown in double).
     double best_cost = std::numeric_limits<double>::infinity();
     int split = -1;
-    std::array<double, kBins> right_area{};
-    std::array<int, kBins> right_count{};
-    Box acc;
+    std::array<double, kBins> right_area;
+    std::array<int, kBins> right_count;
+    Bin acc = Bin::empty();
     int count = 0;
     for (int b = n_bins - 1; b > 0; --b) {
-      acc.grow(bins[b].box());
+      acc.grow_box(bins[b]);
       count += bins[b].count;
-      right_area[b] = acc.half_area();
+      right_area[b] = acc.box().half_area();
       right_count[b] = count;
     }
-    acc = Box();
+    acc = Bin::empty();
     count = 0;
     for (int b = 0; b < n_bins - 1; ++b) {
-      acc.grow(bins[b].box());
+      acc.grow_box(bins[b]);
       count += bins[b].count;
-      if (count == 0 || right_count[b + 1] == 0) continue;
-      double cost = acc.half_area() * count + right_area[b + 1] * right_count[b + 1];
-      if (cost < best_cost) {
-        best_cost = cost;
-        split = b;
-      }
+      double cost = acc.box().half_area() * count + right_area[b + 1] * right_count[b + 1];
+      // Selects, not a branch: which bin wins is data the predictor cannot learn.
+      bool better = count > 0 && right_count[b + 1] > 0 && cost < best_cost;
+      best_cost = better ? cost : best_cost;
+      split = better ? b : split;
     }
     double area = box.half_area();
     double leaf_cost = static_cast<double>(n);
@@ -648,15 +660,12 @@ struct Builder {
     // The children's boxes and centroid bounds are unions of their bins' (grown in R,
     // converted once: min and max are exact, so these are the bounds a pass over each
     // side would find).
-    BasicBox<R> side_box[2], side_cbox[2];
-    for (int b = 0; b < n_bins; ++b) {
-      side_box[b <= split ? 0 : 1].grow(bins[b].box());
-      side_cbox[b <= split ? 0 : 1].grow(bins[b].cbox());
-    }
+    Bin sides[2] = {Bin::empty(), Bin::empty()};
+    for (int b = 0; b < n_bins; ++b) sides[b <= split ? 0 : 1].grow(bins[b]);
     for (int side = 0; side < 2; ++side) {
       child_box[side] = child_cbox[side] = Box();
-      child_box[side].grow(side_box[side]);
-      child_cbox[side].grow(side_cbox[side]);
+      child_box[side].grow(sides[side].box());
+      child_cbox[side].grow(sides[side].cbox());
     }
     // Partition by bin_of, the function that counted each primitive in its bin.
     auto left_side = [&](const PrimRef<R>& r) { return bin_of(r) <= split; };
