@@ -9,6 +9,7 @@
 #include <cstring>
 #include <limits>
 #include <random>
+#include <set>
 #include <vector>
 
 #include <twinray/twinray.hpp>
@@ -318,71 +319,137 @@ TEST_CASE("bvh: a split hands each child the bounds of the primitives it holds")
   CHECK(splits >= 6);
 }
 
-TEST_CASE("bvh: a split takes the cheapest bin boundary") {
-  // The SAH as the builder states it: along the widest centroid axis, min(n, kBins)
-  // bins of equal width; the cost of the boundary after bin k is
-  // area(left) count(left) + area(right) count(right), with both sides non-empty, and
-  // the first of equally cheap boundaries wins. Recomputed here over the primitives
-  // with boxes grown in double, so the builder's bins and sweep must agree with it.
+// Checks the split of refs[begin, end) against the SAH as the builder states it: along
+// the widest centroid axis, min(n, kBins) bins of equal width; the cost of the boundary
+// after bin k is area(left) count(left) + area(right) count(right), with both sides
+// non-empty, and the first of equally cheap boundaries wins. Recomputed here over the
+// primitives with boxes grown in double, so the builder's bins, its sweep and its
+// partition must agree with it. Returns the boundary taken.
+template <class R>
+int check_cheapest_split(const twinray::LargeVector<twinray::bvh::PrimRef<R>>& refs, int begin,
+                         int end, bool all_threads) {
   using twinray::bvh::Box;
+  using Builder = twinray::bvh::detail::Builder<twinray::bvh::BinaryNode<R>, R>;
+  const int count = end - begin;
+  Box box, cbox;
+  twinray::bvh::detail::bounds_of(refs, begin, end, &box, &cbox);
+  const int axis = Builder::widest_axis(cbox);
+  const int n_bins = std::min(twinray::bvh::kBins, count);
+  const double scale = n_bins / (cbox.hi[axis] - cbox.lo[axis]);
+  auto bin_of = [&](const twinray::bvh::PrimRef<R>& r) {
+    return std::min(n_bins - 1, static_cast<int>((r.centroid(axis) - cbox.lo[axis]) * scale));
+  };
+  double best_cost = std::numeric_limits<double>::infinity();
+  int best = -1;
+  for (int k = 0; k + 1 < n_bins; ++k) {
+    Box left, right;
+    int n_left = 0, n_right = 0;
+    for (int i = begin; i < end; ++i) {
+      const auto& r = refs[static_cast<size_t>(i)];
+      if (bin_of(r) <= k) {
+        left.grow(r.box);
+        ++n_left;
+      } else {
+        right.grow(r.box);
+        ++n_right;
+      }
+    }
+    if (n_left == 0 || n_right == 0) continue;
+    double cost = left.half_area() * n_left + right.half_area() * n_right;
+    if (cost < best_cost) best_cost = cost, best = k;
+  }
+  REQUIRE(best >= 0);
+  auto split_refs = refs;
+  Builder builder(split_refs, 2.0);
+  Box child_box[2], child_cbox[2];
+  const int mid = builder.sah_split(begin, end, box, cbox, child_box, child_cbox, all_threads);
+  REQUIRE(mid > begin);  // more than a leaf holds, or a split cheaper than the leaf
+  REQUIRE(mid < end);
+  // The left side holds exactly the bins up to `best`.
+  int left_max = -1, right_min = n_bins, n_left = 0;
+  for (int i = begin; i < mid; ++i)
+    left_max = std::max(left_max, bin_of(split_refs[static_cast<size_t>(i)]));
+  for (int i = mid; i < end; ++i)
+    right_min = std::min(right_min, bin_of(split_refs[static_cast<size_t>(i)]));
+  for (int i = begin; i < end; ++i) n_left += bin_of(refs[static_cast<size_t>(i)]) <= best;
+  CHECK(left_max <= best);
+  CHECK(right_min > best);
+  CHECK(mid - begin == n_left);
+  return best;
+}
+
+TEST_CASE("bvh: a split takes the cheapest bin boundary") {
   auto ps = pack_with_bvh(bvh_test::random_scene<float>(3000, 2000, 29u), 0, 2);
   const int n = static_cast<int>(ps.spheres.size() + ps.triangles.size());
   auto refs = twinray::bvh::primitive_refs<float>(ps.spheres, ps.triangles);
-  using Builder = twinray::bvh::detail::Builder<twinray::bvh::BinaryNode<float>, float>;
   for (int count : {9, 15, 16, 17, 40, 1000, n - 100})
     for (bool all_threads : {false, true}) {
       CAPTURE(count);
       CAPTURE(all_threads);
-      const int begin = 50, end = begin + count;
-      REQUIRE(end <= n);
-      Box box, cbox;
-      twinray::bvh::detail::bounds_of(refs, begin, end, &box, &cbox);
-      const int axis = Builder::widest_axis(cbox);
-      const int n_bins = std::min(twinray::bvh::kBins, count);
-      const double scale = n_bins / (cbox.hi[axis] - cbox.lo[axis]);
-      auto bin_of = [&](const twinray::bvh::PrimRef<float>& r) {
-        return std::min(n_bins - 1, static_cast<int>((r.centroid(axis) - cbox.lo[axis]) * scale));
-      };
-      double best_cost = std::numeric_limits<double>::infinity();
-      int best = -1;
-      for (int k = 0; k + 1 < n_bins; ++k) {
-        Box left, right;
-        int n_left = 0, n_right = 0;
-        for (int i = begin; i < end; ++i) {
-          const auto& r = refs[static_cast<size_t>(i)];
-          if (bin_of(r) <= k) {
-            left.grow(r.box);
-            ++n_left;
-          } else {
-            right.grow(r.box);
-            ++n_right;
-          }
-        }
-        if (n_left == 0 || n_right == 0) continue;
-        double cost = left.half_area() * n_left + right.half_area() * n_right;
-        if (cost < best_cost) best_cost = cost, best = k;
-      }
-      REQUIRE(best >= 0);
-      auto split_refs = refs;
-      Builder builder(split_refs, 2.0);
-      Box child_box[2], child_cbox[2];
-      const int mid = builder.sah_split(begin, end, box, cbox, child_box, child_cbox, all_threads);
-      REQUIRE(mid > begin);  // more than a leaf holds, or a split cheaper than the leaf
-      REQUIRE(mid < end);
-      int left_max = -1, right_min = n_bins;
-      for (int i = begin; i < mid; ++i)
-        left_max = std::max(left_max, bin_of(split_refs[static_cast<size_t>(i)]));
-      for (int i = mid; i < end; ++i)
-        right_min = std::min(right_min, bin_of(split_refs[static_cast<size_t>(i)]));
-      // The left side holds exactly the bins up to `best`.
-      CHECK(left_max <= best);
-      CHECK(right_min > best);
-      CHECK(mid - begin == [&] {
-        int k = 0;
-        for (int i = begin; i < end; ++i) k += bin_of(refs[static_cast<size_t>(i)]) <= best;
-        return k;
-      }());
+      REQUIRE(50 + count <= n);
+      check_cheapest_split(refs, 50, 50 + count, all_threads);
     }
+}
+
+TEST_CASE_TEMPLATE("bvh: least_where finds the first value of R where a threshold is reached", R,
+                   float, double) {
+  // Thresholds on both sides of zero, at zero of either sign, among subnormals and at
+  // the ends of the range: the answer is the threshold itself (each is a value of R).
+  const R inf = std::numeric_limits<R>::infinity();
+  const R tiny = std::numeric_limits<R>::denorm_min();
+  const R big = std::numeric_limits<R>::max();
+  struct Case {
+    R lo, hi, threshold;
+  };
+  const Case cases[] = {{R(-1e6), R(1e6), R(0.375)},
+                        {R(-1e6), R(1e6), std::nextafter(R(0), -inf)},
+                        {R(-1e6), R(1e6), tiny},
+                        {R(-1e6), R(1e6), R(3) * tiny},
+                        {R(-1), R(1), std::nextafter(R(1), -inf)},
+                        {R(-1), R(1), R(1)},
+                        {R(-1), R(1), std::nextafter(R(-1), inf)},
+                        {-big, big, R(-7.25)},
+                        {R(2), R(4), R(3)},
+                        {R(-4), R(-2), std::nextafter(R(-3), inf)}};
+  for (const Case& c : cases) {
+    CAPTURE(c.threshold);
+    R found = twinray::bvh::least_where(c.lo, c.hi, [&](R v) { return v >= c.threshold; });
+    CHECK(found == c.threshold);
+  }
+  // At zero: -0 and +0 compare equal, so the first value at or above 0 is -0.
+  R zero = twinray::bvh::least_where(R(-1), R(1), [](R v) { return v >= R(0); });
+  CHECK(zero == R(0));
+  CHECK(std::signbit(zero));
+}
+
+TEST_CASE_TEMPLATE("bvh: a split puts centroids a unit apart on the sides of their bins", R, float,
+                   double) {
+  // Centroids on consecutive values of R: every bin boundary falls between two
+  // neighbouring centroids, so a partition that misplaced the boundary by one unit in the
+  // last place would move a primitive to the side it was not counted on. Each box is
+  // flat in x and symmetric in y and z (its centroid is (x, 0, 0) exactly); random
+  // heights in y and z move the cheapest boundary from node to node.
+  std::mt19937 rng(31u);
+  std::uniform_real_distribution<double> height(0.01, 4.0);
+  std::set<int> boundaries;
+  for (int trial = 0; trial < 24; ++trial) {
+    CAPTURE(trial);
+    const int count = trial % 2 == 0 ? 3000 : 77;
+    twinray::LargeVector<twinray::bvh::PrimRef<R>> refs(static_cast<size_t>(count));
+    R x = R(1.5) + R(trial);
+    for (int i = 0; i < count; ++i) {
+      auto& r = refs[static_cast<size_t>(i)];
+      R h = static_cast<R>(height(rng));
+      r.box.lo[0] = r.box.hi[0] = x;
+      r.box.lo[1] = r.box.lo[2] = -h;
+      r.box.hi[1] = r.box.hi[2] = h;
+      r.id = i;
+      x = std::nextafter(x, std::numeric_limits<R>::infinity());
+    }
+    std::shuffle(refs.begin(), refs.end(), rng);
+    boundaries.insert(check_cheapest_split(refs, 0, count, false));
+  }
+  CHECK(boundaries.size() >= 4);  // the test reached several boundaries
 }
 
 TEST_CASE("bvh: a large scene's primitives and nodes ask for huge pages") {

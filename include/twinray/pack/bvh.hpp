@@ -91,6 +91,9 @@ constexpr int kParallelMinPrims = 16384;  // smaller subtrees are built on the c
 // The root's passes over its primitives (bounds, bins, the two sides' centroid bounds)
 // run on every thread in blocks of this many, before any subtree has a thread of its own.
 constexpr int kParallelPassPrims = 65536;
+// Nodes of at least this many primitives are partitioned by comparing each centroid with
+// one value found by a bisection (Builder::sah_split); smaller ones by their bins.
+constexpr int kPartitionByValuePrims = 128;
 
 // The widths a BVH can have, and the fastest on each backend (measured with
 // bench/twinray_bench.cpp --bvh-width, docs/performance.md "BVH width").
@@ -268,6 +271,36 @@ R step_toward(R r, int toward) {
   bits = away ? bits + 1 : bits - 1;
   std::memcpy(&r, &bits, sizeof bits);
   return r;
+}
+
+// The least value of R in (lo, hi] where `holds` is true, for finite lo < hi, a
+// monotonic `holds` (false up to some value, true from there on), false at lo and true
+// at hi. A bisection over the values' bit patterns, mapped to unsigned integers in the
+// order of the values they encode: at most as many steps as R has bits.
+template <class R, class Pred>
+R least_where(R lo, R hi, const Pred& holds) {
+  using Bits = typename std::conditional<sizeof(R) == 4, std::uint32_t, std::uint64_t>::type;
+  constexpr Bits sign = Bits(1) << (8 * sizeof(R) - 1);
+  auto key = [](R v) {
+    Bits b;
+    std::memcpy(&b, &v, sizeof b);
+    return (b & sign) != 0 ? Bits(~b) : Bits(b | sign);
+  };
+  auto value = [](Bits k) {
+    Bits b = (k & sign) != 0 ? Bits(k & ~sign) : Bits(~k);
+    R v;
+    std::memcpy(&v, &b, sizeof v);
+    return v;
+  };
+  Bits false_at = key(lo), true_at = key(hi);
+  while (true_at - false_at > 1) {
+    Bits mid = false_at + (true_at - false_at) / 2;
+    if (holds(value(mid)))
+      true_at = mid;
+    else
+      false_at = mid;
+  }
+  return value(true_at);
 }
 
 // v rounded to R toward -inf (down) or +inf (up): a box stays around what it bounds.
@@ -595,12 +628,11 @@ struct Builder {
     if (!(extent > 0)) return no_sah_split();  // all centroids coincide
     const double scale = n_bins / extent;
     const double lo = cbox.lo[a];
-    // The one bin computation: binning and the partition below both call it, so each
-    // primitive goes to the side it was counted on.
+    // The one bin computation: binning calls it, and the partition below splits where
+    // it does, so each primitive goes to the side it was counted on.
     auto bin_of_centroid = [&](R centroid) {
       return std::min(n_bins - 1, static_cast<int>((centroid - lo) * scale));
     };
-    auto bin_of = [&](const PrimRef<R>& r) { return bin_of_centroid(r.centroid(a)); };
     auto bin_pass = [&](int b, int e) {
       Bins set;
       for (int k = 0; k < n_bins; ++k) set.bin[k] = Bin::empty();
@@ -667,8 +699,20 @@ struct Builder {
       child_box[side].grow(sides[side].box());
       child_cbox[side].grow(sides[side].cbox());
     }
-    // Partition by bin_of, the function that counted each primitive in its bin.
-    auto left_side = [&](const PrimRef<R>& r) { return bin_of(r) <= split; };
+    // Partition by bin_of_centroid, the function that counted each primitive in its
+    // bin. For a large node, with one compare per centroid: bin_of_centroid is monotonic
+    // (each of its steps rounds monotonically), so the left side's centroids are
+    // exactly those below the least value whose bin is past `split`, which lies in
+    // (least centroid, greatest centroid], the first in bin 0 and the second past
+    // `split`. Finding it costs a bisection, which a small node does not repay.
+    if (n < kPartitionByValuePrims) {
+      auto left_side = [&](const PrimRef<R>& r) { return bin_of_centroid(r.centroid(a)) <= split; };
+      return block_partition(refs, begin, end, left_side);
+    }
+    const R first_right =
+        least_where(static_cast<R>(cbox.lo[a]), static_cast<R>(cbox.hi[a]),
+                    [&](R centroid) { return bin_of_centroid(centroid) > split; });
+    auto left_side = [&](const PrimRef<R>& r) { return r.centroid(a) < first_right; };
     return block_partition(refs, begin, end, left_side);
   }
 };
