@@ -62,6 +62,25 @@ TR_FN vec3 tr_render_pixel(const TrSceneRef* s, int px, int py) {
   return sum * (TR_R(1.0) / (real)p->spp);
 }
 
+/* The block at position `index` in the order both backends hand a rectangle's
+ * blocks_x x blocks_y blocks to their threads: tiles of TR_TILE_BLOCKS x TR_TILE_BLOCKS
+ * blocks, row by row of tiles, and each tile's blocks row by row; the tiles of the last
+ * row and column are cut to the rectangle. A thread that takes consecutive positions
+ * renders neighbouring blocks one after the other, whose rays meet the same nodes and
+ * primitives while they are still in its core's caches: frames took 0.96-0.99 of the
+ * time they took with blocks handed out row by row (docs/performance.md). A bijection
+ * of [0, blocks_x blocks_y) onto the blocks; (*bx, *by) in blocks. */
+TR_FN_INLINE void tr_tiled_block(int index, int blocks_x, int blocks_y, int* bx, int* by) {
+  int tile_y = index / (TR_TILE_BLOCKS * blocks_x) * TR_TILE_BLOCKS; /* its tile row's top */
+  int tile_h = blocks_y - tile_y < TR_TILE_BLOCKS ? blocks_y - tile_y : TR_TILE_BLOCKS;
+  int in_row = index - tile_y * blocks_x; /* the tile row holds tile_h blocks_x blocks */
+  int tile_x = in_row / (TR_TILE_BLOCKS * tile_h) * TR_TILE_BLOCKS;
+  int tile_w = blocks_x - tile_x < TR_TILE_BLOCKS ? blocks_x - tile_x : TR_TILE_BLOCKS;
+  int in_tile = in_row - tile_x * tile_h;
+  *bx = tile_x + in_tile % tile_w;
+  *by = tile_y + in_tile / tile_w;
+}
+
 /* tr_render_pixel for a block of w x h pixels from (x0, y0), w h <= TR_PACKET_MAX,
  * into colors[w h] (rows of w): the same values, computed a segment at a time for all
  * the block's paths, so that each segment's rays, and its shadow rays toward each

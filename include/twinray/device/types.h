@@ -174,7 +174,8 @@ typedef struct TrNearest {
  * lane), each ray's nearest hit, and, for a coherent packet, the bounds of origins
  * and reciprocal directions over all rays and the slab planes they share. */
 #define TR_PACKET_MAX 64
-#define TR_BLOCK_SIDE 8 /* tr_render_block's blocks, TR_BLOCK_SIDE^2 <= TR_PACKET_MAX rays */
+#define TR_BLOCK_SIDE 8  /* tr_render_block's blocks, TR_BLOCK_SIDE^2 <= TR_PACKET_MAX rays */
+#define TR_TILE_BLOCKS 4 /* tr_tiled_block: tiles of TR_TILE_BLOCKS^2 blocks */
 typedef struct TrRayPacket {
   int n;
   TrRay ray[TR_PACKET_MAX];
