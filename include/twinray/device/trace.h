@@ -67,9 +67,10 @@ TR_FN vec3 tr_render_pixel(const TrSceneRef* s, int px, int py) {
  * blocks, row by row of tiles, and each tile's blocks row by row; the tiles of the last
  * row and column are cut to the rectangle. A thread that takes consecutive positions
  * renders neighbouring blocks one after the other, whose rays meet the same nodes and
- * primitives while they are still in its core's caches: frames took 0.96-0.99 of the
- * time they took with blocks handed out row by row (docs/performance.md). A bijection
- * of [0, blocks_x blocks_y) onto the blocks; (*bx, *by) in blocks. */
+ * primitives while they are still in its core's caches: CPU frames took 0.98-0.99 of
+ * the time they took with blocks handed out row by row, PoCL's the same within the
+ * noise (docs/performance.md). A bijection of [0, blocks_x blocks_y) onto the blocks;
+ * (*bx, *by) in blocks. */
 TR_FN_INLINE void tr_tiled_block(int index, int blocks_x, int blocks_y, int* bx, int* by) {
   int tile_y = index / (TR_TILE_BLOCKS * blocks_x) * TR_TILE_BLOCKS; /* its tile row's top */
   int tile_h = blocks_y - tile_y < TR_TILE_BLOCKS ? blocks_y - tile_y : TR_TILE_BLOCKS;
