@@ -57,23 +57,12 @@ __kernel void tr_kernel_render(TR_SCENE_ARGS, __global real* out) {
 /* One work-item per TR_BLOCK_SIDE^2 block of the rectangle, traced a segment at a time in packets
  * (tr_render_block, as on the CPU backend): for CPU devices, where a work-item is a
  * thread's loop iteration and the packet's shared walk pays as it does in C++. The
- * range is one row of blocks_x blocks_y work-items, in tr_tiled_block's order, which
- * the CPU backend's threads follow too. */
+ * range is one row of tr_block_count work-items, in tr_tiled_block's order, which the
+ * CPU backend's threads follow too. */
 __kernel void tr_kernel_render_blocks(TR_SCENE_ARGS, __global real* out) {
-  int blocks_x = (params->rect_w + TR_BLOCK_SIDE - 1) / TR_BLOCK_SIDE;
-  int blocks_y = (params->rect_h + TR_BLOCK_SIDE - 1) / TR_BLOCK_SIDE;
-  int index = (int)get_global_id(0);
-  if (index >= blocks_x * blocks_y) return;
-  int i = 0, j = 0;
-  tr_tiled_block(index, blocks_x, blocks_y, &i, &j);
-  int x0 = i * TR_BLOCK_SIDE, y0 = j * TR_BLOCK_SIDE;
-  int w = min(TR_BLOCK_SIDE, params->rect_w - x0), h = min(TR_BLOCK_SIDE, params->rect_h - y0);
   TrSceneRef s = tr_scene_ref(TR_SCENE_ARG_NAMES);
   TrBlockScratch scratch;
-  vec3 colors[TR_BLOCK_SIDE * TR_BLOCK_SIDE];
-  tr_render_block(&s, &scratch, params->rect_x + x0, params->rect_y + y0, w, h, colors);
-  for (int j = 0; j < w * h; ++j)
-    tr_store_rgb(out, params->rect_w, x0 + j % w, y0 + j / w, colors[j]);
+  tr_render_block_at(&s, &scratch, (int)get_global_id(0), out);
 }
 
 #endif

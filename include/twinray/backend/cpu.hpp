@@ -136,20 +136,11 @@ class CpuBackend final : public RenderBackend<T> {
       // the same values as pixel by pixel.
       using Scratch = typename device::Code<T>::BlockScratch;
       static_assert(TR_BLOCK_SIDE * TR_BLOCK_SIDE <= TR_PACKET_MAX, "a block is one packet");
-      // In the kernel's order of blocks (tr_tiled_block), a tile at a time per thread.
-      const int blocks_x = (p.rect_w + TR_BLOCK_SIDE - 1) / TR_BLOCK_SIDE;
-      const int blocks_y = (p.rect_h + TR_BLOCK_SIDE - 1) / TR_BLOCK_SIDE;
-      parallel_for(blocks_x * blocks_y, TR_TILE_BLOCKS * TR_TILE_BLOCKS, [&](int index) {
-        int i = 0, j = 0;
-        K::tr_tiled_block(index, blocks_x, blocks_y, &i, &j);
-        const int x = i * TR_BLOCK_SIDE, y = j * TR_BLOCK_SIDE;
-        const int w = std::min(TR_BLOCK_SIDE, p.rect_w - x),
-                  h = std::min(TR_BLOCK_SIDE, p.rect_h - y);
+      // The block kernel's steps (tr_render_block_at), a tile of blocks at a time per
+      // thread.
+      parallel_for(K::tr_block_count(&p), TR_TILE_BLOCKS * TR_TILE_BLOCKS, [&](int index) {
         thread_local Scratch scratch;
-        glm::vec<3, T> colors[TR_BLOCK_SIDE * TR_BLOCK_SIDE];
-        K::tr_render_block(&scene, &scratch, p.rect_x + x, p.rect_y + y, w, h, colors);
-        for (int k = 0; k < w * h; ++k)
-          K::tr_store_rgb(image.rgb.data(), p.rect_w, x + k % w, y + k / w, colors[k]);
+        K::tr_render_block_at(&scene, &scratch, index, image.rgb.data());
       });
       return;
     }

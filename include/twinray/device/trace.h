@@ -173,3 +173,33 @@ TR_FN void tr_store_rgb(TR_GLOBAL real* out, int width, int px, int py, vec3 c) 
   out[i + 1] = c.y;
   out[i + 2] = c.z;
 }
+
+/* How many blocks of TR_BLOCK_SIDE pixels cover a side of `pixels` pixels, the last
+ * one cut to it. */
+TR_FN_INLINE int tr_blocks_across(int pixels) {
+  return (pixels + TR_BLOCK_SIDE - 1) / TR_BLOCK_SIDE;
+}
+
+/* How many blocks of TR_BLOCK_SIDE x TR_BLOCK_SIDE pixels cover the frame's rectangle:
+ * the length of the block kernel's range and of the CPU backend's loop over blocks. */
+TR_FN_INLINE int tr_block_count(TR_GLOBAL const TrParams* p) {
+  return tr_blocks_across(p->rect_w) * tr_blocks_across(p->rect_h);
+}
+
+/* Renders the block at position `index` (tr_tiled_block's order) of the frame's
+ * rectangle into out, rect_w x rect_h pixels (tr_store_rgb); nothing where index is
+ * past the last block. One work-item of the block kernel, one step of the CPU
+ * backend's loop over blocks. */
+TR_FN void tr_render_block_at(const TrSceneRef* s, TrBlockScratch* b, int index,
+                              TR_GLOBAL real* out) {
+  TR_GLOBAL const TrParams* p = s->params;
+  if (index >= tr_block_count(p)) return;
+  int bx = 0, by = 0;
+  tr_tiled_block(index, tr_blocks_across(p->rect_w), tr_blocks_across(p->rect_h), &bx, &by);
+  int x = bx * TR_BLOCK_SIDE, y = by * TR_BLOCK_SIDE;
+  int w = p->rect_w - x < TR_BLOCK_SIDE ? p->rect_w - x : TR_BLOCK_SIDE;
+  int h = p->rect_h - y < TR_BLOCK_SIDE ? p->rect_h - y : TR_BLOCK_SIDE;
+  vec3 colors[TR_BLOCK_SIDE * TR_BLOCK_SIDE];
+  tr_render_block(s, b, p->rect_x + x, p->rect_y + y, w, h, colors);
+  for (int k = 0; k < w * h; ++k) tr_store_rgb(out, p->rect_w, x + k % w, y + k / w, colors[k]);
+}

@@ -280,11 +280,9 @@ class OpenCLBackend final : public RenderBackend<T> {
       cl_int aov = device_aov(output);
       set_arg(k, kSceneArgs + 1, sizeof aov, &aov);
     }
-    if (blocks)  // a row of work-items, each a block in tr_tiled_block's order
-      launch_2d(k,
-                ((p.rect_w + TR_BLOCK_SIDE - 1) / TR_BLOCK_SIDE) *
-                    ((p.rect_h + TR_BLOCK_SIDE - 1) / TR_BLOCK_SIDE),
-                1, "clEnqueueNDRangeKernel (blocks)", 1);
+    if (blocks)  // a row of work-items, each a block (tr_render_block_at)
+      launch_2d(k, device::Code<T>::template Kernel<TR_F_ALL>::tr_block_count(&p), 1,
+                "clEnqueueNDRangeKernel (blocks)", 1);
     else
       launch_2d(k, p.rect_w, p.rect_h, "clEnqueueNDRangeKernel");
     check(clFinish(ctx_.queue()), "clFinish");  // so the read times the copy alone
