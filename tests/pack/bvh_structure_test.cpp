@@ -391,6 +391,49 @@ TEST_CASE("bvh: a split takes the cheapest bin boundary") {
     }
 }
 
+TEST_CASE_TEMPLATE("bvh: a node the area bound calls a leaf is one the SAH makes a leaf", R, float,
+                   double) {
+  // The builder skips binning where a lower bound of the split cost already picks a
+  // leaf (Builder::leaf_by_bound); the tree stays the same only if sah_split agrees on
+  // every such node. Runs of neighbouring primitives in leaf order, as the build meets
+  // them near the leaves, at both traversal costs the builder uses.
+  using Builder = twinray::bvh::detail::Builder<twinray::bvh::BinaryNode<R>, R>;
+  // Scattered primitives, and a grid of neighbouring triangles as a mesh's.
+  auto scene = bvh_test::random_scene<R>(1500, 1500, 31u);
+  scene.add(bvh_test::folded_grid<R>(40, 1));
+  auto ps = pack_with_bvh(scene, 0, 2);
+  auto refs = twinray::bvh::primitive_refs<R>(ps.spheres, ps.triangles);
+  const int n = static_cast<int>(refs.size());
+  for (double traversal : {1.0, 2.0}) {
+    int by_bound[twinray::bvh::kMaxLeafSize + 1] = {};
+    int splits = 0;
+    for (int count = 2; count <= twinray::bvh::kMaxLeafSize + 1; ++count)
+      for (int begin = 0; begin + count <= n; begin += 3) {
+        const int end = begin + count;
+        twinray::bvh::Box box, cbox;
+        twinray::bvh::detail::bounds_of(refs, begin, end, &box, &cbox);
+        auto split_refs = refs;
+        Builder builder(split_refs, traversal);
+        twinray::bvh::Box child_box[2], child_cbox[2];
+        const int mid = builder.sah_split(begin, end, box, cbox, child_box, child_cbox);
+        splits += mid >= 0;
+        if (!builder.leaf_by_bound(begin, end, box)) continue;
+        CAPTURE(traversal);
+        CAPTURE(count);
+        CAPTURE(begin);
+        REQUIRE(count <= twinray::bvh::kMaxLeafSize);
+        CHECK(mid == -1);
+        ++by_bound[count];
+      }
+    CAPTURE(traversal);
+    // The bound decides many small nodes here, as it must to spare the build any time:
+    // pairs at either cost (at 2 every pair), and at cost 2 triples too.
+    CHECK(by_bound[2] > 500);
+    if (traversal == 2.0) CHECK(by_bound[3] > 100);
+    CHECK(splits > 1000);  // and the SAH still splits the rest
+  }
+}
+
 TEST_CASE_TEMPLATE("bvh: least_where finds the first value of R where a threshold is reached", R,
                    float, double) {
   // Thresholds on both sides of zero, at zero of either sign, among subnormals and at
