@@ -678,7 +678,8 @@ TEST_CASE_TEMPLATE("bvh: the builder's rounding step is std::nextafter's", R, fl
 TEST_CASE("bvh: the block partition puts every left element first and loses none") {
   std::mt19937 rng(7);
   // Sizes around the 64-element blocks and their pairs; left shares from none to all.
-  for (int n : {0, 1, 2, 63, 64, 65, 127, 128, 129, 191, 256, 1000, 4099, 100000}) {
+  for (int n :
+       {0, 1, 2, 3, 17, 63, 64, 65, 127, 128, 129, 147, 150, 191, 256, 1000, 4099, 100000}) {
     for (double share : {0.0, 0.01, 0.5, 0.97, 1.0}) {
       std::vector<int> v(static_cast<size_t>(n));
       for (int i = 0; i < n; ++i) v[static_cast<size_t>(i)] = i;
@@ -693,6 +694,17 @@ TEST_CASE("bvh: the block partition puts every left element first and loses none
       CAPTURE(share);
       REQUIRE(mid >= begin);
       REQUIRE(mid <= end);
+      // The same order as a plain Hoare loop, which the builder's trees were made with.
+      std::vector<int> hoare = before;
+      int i = begin, j = end - 1;
+      for (;;) {
+        while (i <= j && is_left(hoare[static_cast<size_t>(i)])) ++i;
+        while (i <= j && !is_left(hoare[static_cast<size_t>(j)])) --j;
+        if (i >= j) break;
+        std::swap(hoare[static_cast<size_t>(i++)], hoare[static_cast<size_t>(j--)]);
+      }
+      CHECK(mid == i);
+      CHECK(v == hoare);
       CHECK(std::all_of(v.begin() + begin, v.begin() + mid, is_left));
       CHECK(std::none_of(v.begin() + mid, v.begin() + end, is_left));
       CHECK(std::equal(v.begin(), v.begin() + begin, before.begin()));
