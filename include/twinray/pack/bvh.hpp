@@ -683,18 +683,29 @@ struct Builder {
     auto bin_of_centroid = [&](R centroid) {
       return std::min(n_bins - 1, static_cast<int>((centroid - lo) * scale));
     };
+    // A chunk's bins are found in a loop of their own before any bin grows. Neighbouring
+    // primitives often fall in one bin, where each update waits for the one before;
+    // found in the same loop, each bin's conversions queued behind those updates
+    // (mesh_1e6's pack took about 1.1 times as long; docs/performance.md).
     auto bin_pass = [&](int b, int e) {
       Bins set;
       for (int k = 0; k < n_bins; ++k) set.bin[k] = Bin::empty();
-      for (int i = b; i < e; ++i) {
-        const BasicBox<R>& box = refs[static_cast<size_t>(i)].box;
-        const R lo4[4] = {box.lo[0], box.lo[1], box.lo[2], box.lo[0]};
-        const R hi4[4] = {box.hi[0], box.hi[1], box.hi[2], box.hi[0]};
-        R c[4];  // c[a] is PrimRef::centroid(a)
-        for (int l = 0; l < 4; ++l) c[l] = PrimRef<R>::midpoint(lo4[l], hi4[l]);
-        Bin& bin = set.bin[bin_of_centroid(c[a])];
-        bin.count++;
-        bin.grow(lo4, hi4, c, c);
+      constexpr int kChunk = 64;
+      int bin_index[kChunk];
+      for (int chunk = b; chunk < e; chunk += kChunk) {
+        const int m = std::min(kChunk, e - chunk);
+        for (int k = 0; k < m; ++k)
+          bin_index[k] = bin_of_centroid(refs[static_cast<size_t>(chunk + k)].centroid(a));
+        for (int k = 0; k < m; ++k) {
+          const BasicBox<R>& box = refs[static_cast<size_t>(chunk + k)].box;
+          const R lo4[4] = {box.lo[0], box.lo[1], box.lo[2], box.lo[0]};
+          const R hi4[4] = {box.hi[0], box.hi[1], box.hi[2], box.hi[0]};
+          R c[4];  // c[a] is PrimRef::centroid(a), as binned
+          for (int l = 0; l < 4; ++l) c[l] = PrimRef<R>::midpoint(lo4[l], hi4[l]);
+          Bin& bin = set.bin[bin_index[k]];
+          bin.count++;
+          bin.grow(lo4, hi4, c, c);
+        }
       }
       return set;
     };
