@@ -2,6 +2,8 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <cstring>
+#include <initializer_list>
 #include <limits>
 
 #include "device/device_test_util.hpp"
@@ -134,4 +136,46 @@ TEST_CASE_TEMPLATE("tr_pow_unit agrees with pow within its error bound, any real
       }
     }
   CHECK(K<T>::tr_pow_unit(T(0), T(0)) == T(1));  // max(0, n.h)^0 = 1
+}
+
+TEST_CASE_TEMPLATE("a block's specular powers are tr_pow_unit's, to the bit", T, float, double) {
+  // tr_specular_powers runs tr_pow_unit's steps for all hits at once where they share a
+  // whole exponent; every result must be the one tr_pow_unit gives the hit alone, for
+  // shared exponents, fractional and huge ones (hit by hit), and mixed materials.
+  typename Code<T>::Material materials[2] = {};
+  typename Code<T>::Params params{};
+  typename Code<T>::SceneRef ref{};
+  ref.params = &params;
+  ref.materials = materials;
+  const T xs[] = {
+      T(0),   T(1),     std::numeric_limits<T>::denorm_min(),     T(1e-30), T(0.125), T(0.5),
+      T(0.9), T(0.999), T(1) - std::numeric_limits<T>::epsilon(), T(0.7071)};
+  const T shininess[][2] = {
+      {0, 0},       {1, 1},     {2, 2},   {65, 65}, {1000, 1000}, {16777215, 16777215},
+      {65.3, 65.3}, {3e7, 3e7}, {65, 64}, {10, 2.5}};
+  for (const auto& e : shininess)
+    for (int n : {1, 7, TR_PACKET_MAX}) {
+      materials[0].shininess = e[0];
+      materials[1].shininess = e[1];
+      typename Code<T>::Hit hits[TR_PACKET_MAX];
+      int specular[TR_PACKET_MAX];
+      T n_dot_h[TR_PACKET_MAX], power[TR_PACKET_MAX];
+      for (int r = 0; r < n; ++r) {
+        hits[r] = test::no_hit<T>();
+        hits[r].material = r % 3 == 2 ? 1 : 0;
+        specular[r] = r % 5 != 3;  // some hits without a specular term
+        n_dot_h[r] = xs[r % 10];
+        power[r] = T(-1);
+      }
+      K<T>::tr_specular_powers(&ref, hits, specular, n_dot_h, n, power);
+      for (int r = 0; r < n; ++r) {
+        if (!specular[r]) continue;
+        const T want = K<T>::tr_pow_unit(n_dot_h[r], materials[hits[r].material].shininess);
+        CAPTURE(e[0]);
+        CAPTURE(e[1]);
+        CAPTURE(n);
+        CAPTURE(r);
+        CHECK(std::memcmp(&power[r], &want, sizeof(T)) == 0);
+      }
+    }
 }

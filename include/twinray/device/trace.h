@@ -129,11 +129,20 @@ TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, int x0, int y
           tr_any_hit_packet(s, pk, b->lane_blocked);
           for (int q = 0; q < k; ++q) b->blocked[b->lane[q]] = b->lane_blocked[q];
         }
+        /* tr_add_light, hit by hit, with the specular powers of all hits between its
+         * two halves. */
         for (int r = 0; r < m; ++r) {
+          b->specular[r] = 0;
+          b->n_dot_h[r] = TR_R(0.0);
           if (!b->found[r]) continue;
-          b->shaded[r] = tr_add_light(s, &b->hit[r], b->surface[r], b->path[b->slot[r]].ray.d,
-                                      b->light[r], b->blocked[r], b->shaded[r]);
+          b->shaded[r] = tr_add_light_before_power(
+              s, &b->hit[r], b->surface[r], b->path[b->slot[r]].ray.d, b->light[r], b->blocked[r],
+              b->shaded[r], &b->n_dot_h[r], &b->specular[r]);
         }
+        tr_specular_powers(s, b->hit, b->specular, b->n_dot_h, m, b->power);
+        for (int r = 0; r < m; ++r)
+          if (b->specular[r])
+            b->shaded[r] = tr_add_specular(s, &b->hit[r], b->light[r], b->power[r], b->shaded[r]);
       }
       for (int r = 0; r < m; ++r)
         tr_path_step(s, &b->path[b->slot[r]], b->found[r], &b->hit[r], b->shaded[r]);

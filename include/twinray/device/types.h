@@ -230,6 +230,10 @@ typedef struct TrBlockScratch {
   TrLightView light[TR_PACKET_MAX];
   int found[TR_PACKET_MAX], slot[TR_PACKET_MAX], lane[TR_PACKET_MAX];
   int lane_blocked[TR_PACKET_MAX], blocked[TR_PACKET_MAX];
+  /* One light's specular terms over the hits: which hits have one, the base n.h of
+   * each and its power (tr_specular_powers). */
+  int specular[TR_PACKET_MAX];
+  real n_dot_h[TR_PACKET_MAX], power[TR_PACKET_MAX];
 } TrBlockScratch;
 
 typedef struct TrSample2 {
