@@ -107,6 +107,20 @@ TR_FN real tr_two_square(real a, real* err) {
  * rounds once; like any multiplication chain for x^n its relative error is bounded by
  * about (p + digits) ulp (in practice far less: 8e-5 relative at p = 1e4 in float),
  * invisible in a highlight and the same on both sides. */
+/* result[l] times base[l]^bits for l < n, by squaring from the lowest bit: for each set
+ * bit the result is multiplied by the base, then the base squared while bits remain.
+ * tr_pow_unit's integer steps, for one value or for a block's hits at once
+ * (tr_specular_powers), where the loop over l is the inner one and g++ vectorizes it.
+ * base[] is left squared. */
+TR_FN void tr_pow_bits(real* result, real* base, int n, int bits) {
+  for (; bits > 0; bits = bits >> 1) {
+    if ((bits & 1) != 0)
+      for (int l = 0; l < n; ++l) result[l] = result[l] * base[l];
+    if (bits > 1)
+      for (int l = 0; l < n; ++l) base[l] = base[l] * base[l];
+  }
+}
+
 TR_FN real tr_pow_unit(real x, real p) {
   real result = TR_R(1.0);
   real whole = floor(p);
@@ -121,12 +135,9 @@ TR_FN real tr_pow_unit(real x, real p) {
     whole = halved;
     base = base * base;
   }
-  int bits = (int)whole;
-  while (bits > 0 && result > TR_R(0.0)) {
-    if ((bits & 1) != 0) result = result * base;
-    bits = bits >> 1;
-    if (bits > 0) base = base * base;
-  }
+  /* A zero result stays zero (the base is in [0, 1]); the loop above may have left it
+   * so with a whole part an int cannot hold. */
+  if (result > TR_R(0.0)) tr_pow_bits(&result, &base, 1, (int)whole);
   int digits = sizeof(real) == 4 ? 24 : 53;
   real root = x;
   for (int k = 0; k < digits && frac > TR_R(0.0); ++k) {

@@ -117,12 +117,11 @@ TR_FN vec3 tr_add_light(const TrSceneRef* s, const TrHit* hit, TrSurface sf, vec
 
 /* power[r] = tr_pow_unit(n_dot_h[r], shininess of hit r's material) for the hits r < n
  * with specular[r] set, to the bit. Where all of them share a whole exponent below
- * 2^24 (one material, as most blocks see), tr_pow_unit's integer steps run with the
- * exponent's bits in the outer loop and the hits in the inner one, which g++ vectorizes:
- * the same products in the same order for each hit, where one hit at a time made a
- * chain of dependent multiplications per hit (about a tenth of the demo's frame).
- * tr_pow_unit's early out on a zero result is left out: 0 times a base in [0, 1] stays
- * 0. Other exponents take tr_pow_unit hit by hit. */
+ * 2^24 (one material, as most blocks see), tr_pow_unit's integer steps (tr_pow_bits)
+ * run for all hits at once, the exponent's bits in the outer loop and the hits in the
+ * inner one, which g++ vectorizes: the same products in the same order for each hit,
+ * where one hit at a time made a chain of dependent multiplications per hit (about a
+ * tenth of the demo's frame). Other exponents take tr_pow_unit hit by hit. */
 TR_FN void tr_specular_powers(const TrSceneRef* s, const TrHit* hits, const int* specular,
                               const real* n_dot_h, int n, real* power) {
   real shininess = TR_R(0.0);
@@ -146,12 +145,7 @@ TR_FN void tr_specular_powers(const TrSceneRef* s, const TrHit* hits, const int*
     power[r] = TR_R(1.0);
     base[r] = n_dot_h[r];
   }
-  for (int bits = (int)whole; bits > 0; bits = bits >> 1) {
-    if ((bits & 1) != 0)
-      for (int r = 0; r < n; ++r) power[r] = power[r] * base[r];
-    if (bits > 1)
-      for (int r = 0; r < n; ++r) base[r] = base[r] * base[r];
-  }
+  tr_pow_bits(power, base, n, (int)whole);
 }
 
 /* The hit's color, tracing its shadow rays one by one. tr_render_block (trace.h) adds
