@@ -1,24 +1,23 @@
-/* Closest hits of a packet of coherent rays (up to TR_PACKET_MAX: one block of camera
- * rays) in one walk of the W-wide BVH, with interval culling: the large-packet
- * traversal of Wald, Boulos and Shirley, "Ray Tracing Deformable Scenes Using Dynamic
- * Bounding Volume Hierarchies" (ACM TOG 26(1), 2007), and Overbeck, Ramamoorthi and
- * Mark, "Large Ray Packets for Real-Time Whitted Ray Tracing" (IRT 2008).
+/* Closest hits and shadow tests of a packet of coherent rays (up to TR_PACKET_MAX: one
+ * block of camera rays, or its shadow rays toward one light) in one walk of the W-wide
+ * BVH: the walk of coherent ray streams (tr_packet_walk_masked), which reads each node
+ * once for all the rays that reach it.
  *
- * An inner node's W boxes are tested once for the whole packet, against the interval
+ * A node's W boxes are first tested once for the whole packet, against the interval
  * that holds every ray's origin and reciprocal direction (all rays' directions have the
- * same sign on each axis, or the packet is walked ray by ray). The interval test is
+ * same sign on each axis, or the packet is walked ray by ray): interval culling, after
+ * Wald, Boulos and Shirley, "Ray Tracing Deformable Scenes Using Dynamic Bounding
+ * Volume Hierarchies" (ACM TOG 26(1), 2007), and Overbeck, Ramamoorthi and Mark, "Large
+ * Ray Packets for Real-Time Whitted Ray Tracing" (IRT 2008). The interval test is
  * conservative against each ray's own box test in floating point, not only in real
  * numbers: rounding is monotonic, so fl(B - o) lies between fl(B - o_hi) and
  * fl(B - o_lo), and fl(x y) between the least and greatest of the rounded products of
- * the bounds. If no ray's own test (tr_ray_hits_boxes) could enter a box, the
- * packet's does not either; the packet may enter more, never fewer. At a leaf each ray
- * takes its own box test, the very operations of tr_ray_hits_boxes, one ray per SIMD
- * lane, and tests the primitives only if it passes (where enough rays pass, a leaf's
- * primitives are tested for every ray, a ray per lane, and kept where it passed). Each
- * ray thus
- * offers its primitives to its own nearest hit (tr_offer_hit), a superset of those its single-ray
- * walk offers that still holds the winner: the image is the same bits as the single-ray walk's
- * (tests/pack/packet_test.cpp). */
+ * the bounds. If no ray's own test (tr_ray_hits_boxes) could enter a box, the packet's
+ * does not either. The rays' own tests then decide, the very operations of
+ * tr_ray_hits_boxes, one ray per SIMD lane, and each ray is offered the primitives of
+ * exactly the leaves its own test enters (where enough rays enter a leaf, its
+ * primitives are tested for every ray, a ray per lane, and kept where it entered). The
+ * image is the same bits as the single-ray walk's (tests/pack/packet_test.cpp). */
 
 /* The greatest (greatest = 1) or the least (0) of a[0 .. n), n >= 1: eight running
  * extremes side by side (one vector register) instead of one chain of dependent
@@ -44,6 +43,15 @@ TR_FN_INLINE real tr_lanes_min(const real* a, int n) {
 }
 TR_FN_INLINE real tr_lanes_max(const real* a, int n) {
   return tr_lanes_extreme(a, n, 1);
+}
+
+/* The rays of a packet are tested against one box in groups of TR_PACKET_GROUP, one
+ * vector of floats per group on AVX-512 (tr_packet_rays_in_box); a group with no ray
+ * in the test's mask is skipped. tr_packet_groups_end(n) is n rounded up to a whole
+ * group. */
+#define TR_PACKET_GROUP 16
+TR_FN_INLINE int tr_packet_groups_end(int n) {
+  return (n + TR_PACKET_GROUP - 1) / TR_PACKET_GROUP * TR_PACKET_GROUP;
 }
 
 /* Ray r, read back from the packet's arrays (tr_packet_begin). */
@@ -106,6 +114,20 @@ TR_FN int tr_packet_begin(TrRayPacket* pk) {
                    (fabs(fx) < TR_R(INFINITY)) & (fabs(fy) < TR_R(INFINITY)) &
                    (fabs(fz) < TR_R(INFINITY));
     incoherent |= !coherent;
+  }
+  /* The lanes past n up to a multiple of TR_PACKET_GROUP, which the group loops of
+   * tr_packet_rays_in_box read: a copy of ray 0 that never enters a box (t < 0). */
+  for (int r = n; r < tr_packet_groups_end(n); ++r) {
+    pk->ox[r] = pk->ox[0];
+    pk->oy[r] = pk->oy[0];
+    pk->oz[r] = pk->oz[0];
+    pk->ix[r] = pk->ix[0];
+    pk->iy[r] = pk->iy[0];
+    pk->iz[r] = pk->iz[0];
+    pk->fx[r] = pk->fx[0];
+    pk->fy[r] = pk->fy[0];
+    pk->fz[r] = pk->fz[0];
+    pk->t[r] = TR_R(-1.0);
   }
   pk->o_lo = TR_VEC3(tr_lanes_min(pk->ox, n), tr_lanes_min(pk->oy, n), tr_lanes_min(pk->oz, n));
   pk->o_hi = TR_VEC3(tr_lanes_max(pk->ox, n), tr_lanes_max(pk->oy, n), tr_lanes_max(pk->oz, n));
@@ -173,40 +195,6 @@ TR_FN_INLINE unsigned tr_packet_hits_boxes(TR_GLOBAL const real* boxes, const Tr
  * docs/performance.md). */
 TR_FN_INLINE int tr_packet_leaf_in_lanes(int entered, int n) {
   return entered * 4 >= n;
-}
-
-/* Each ray's own test of child k's box: tr_ray_hits_boxes's operations, in the same
- * order, with the ray in lane r. Sets enter[r] for the rays that enter and returns how
- * many; lists them in rays[] (in order) only where the leaf goes ray by ray
- * (tr_packet_leaf_in_lanes), the one use of the list. */
-TR_FN_INLINE int tr_packet_rays_enter_box(TR_GLOBAL const real* boxes, const TrRayPacket* pk, int W,
-                                          int k, int* enter, int* rays) {
-  TrBoxPlanes p = tr_box_planes(boxes, pk->rows, W);
-  real bnx = p.near_x[k], bny = p.near_y[k], bnz = p.near_z[k];
-  real bfx = p.far_x[k], bfy = p.far_y[k], bfz = p.far_z[k];
-  real grow = tr_box_grow();
-  int n = pk->n;
-  TR_SIMD_LOOP
-  for (int r = 0; r < n; ++r) {
-    real nx = (bnx - pk->ox[r]) * pk->ix[r];
-    real ny = (bny - pk->oy[r]) * pk->iy[r];
-    real nz = (bnz - pk->oz[r]) * pk->iz[r];
-    real fx = (bfx - pk->ox[r]) * pk->fx[r];
-    real fy = (bfy - pk->oy[r]) * pk->fy[r];
-    real fz = (bfz - pk->oz[r]) * pk->fz[r];
-    real t_entry;
-    enter[r] = tr_slab_enters(nx, ny, nz, fx, fy, fz, pk->t[r] * grow, &t_entry);
-  }
-  int count = 0;
-  TR_SIMD_LOOP
-  for (int r = 0; r < n; ++r) count += enter[r];
-  if (count == 0 || tr_packet_leaf_in_lanes(count, n)) return count;
-  count = 0;
-  for (int r = 0; r < n; ++r) { /* branch-free compaction */
-    rays[count] = r;
-    count += enter[r];
-  }
-  return count;
 }
 
 /* Primitive prim, which ray r hits at t if `hit`, offered to the ray, in a loop that
@@ -297,67 +285,64 @@ TR_FN_INLINE void tr_packet_leaf(const TrSceneRef* s, TrRayPacket* pk, int first
   }
 }
 
+/* The rays of `rays` (bit r: ray r) that enter child k's box before their own nearest
+ * hits so far (grown): each ray's own test, tr_ray_hits_boxes's operations in the same
+ * order, a ray per SIMD lane, TR_PACKET_GROUP rays at a time; a group with none of
+ * `rays` is skipped. Sets enter[r] for r in [0, n) to whether ray r is one of them, and
+ * *count to how many there are. */
+TR_FN_INLINE tr_mask64 tr_packet_rays_in_box(TR_GLOBAL const real* boxes, const TrRayPacket* pk,
+                                             int W, int k, tr_mask64 rays, int* enter, int* count) {
+  TrBoxPlanes p = tr_box_planes(boxes, pk->rows, W);
+  real bnx = p.near_x[k], bny = p.near_y[k], bnz = p.near_z[k];
+  real bfx = p.far_x[k], bfy = p.far_y[k], bfz = p.far_z[k];
+  real grow = tr_box_grow();
+  tr_mask64 in = 0;
+  int entered = 0;
+  for (int g = 0; g < pk->n; g += TR_PACKET_GROUP) {
+    unsigned group_rays = (unsigned)(rays >> g) & ((1u << TR_PACKET_GROUP) - 1u);
+    if (group_rays == 0u) {
+      for (int j = 0; j < TR_PACKET_GROUP; ++j) enter[g + j] = 0;
+      continue;
+    }
+    unsigned group_in = 0u;
+    TR_SIMD_LOOP
+    for (int j = 0; j < TR_PACKET_GROUP; ++j) {
+      int r = g + j;
+      real nx = (bnx - pk->ox[r]) * pk->ix[r];
+      real ny = (bny - pk->oy[r]) * pk->iy[r];
+      real nz = (bnz - pk->oz[r]) * pk->iz[r];
+      real fx = (bfx - pk->ox[r]) * pk->fx[r];
+      real fy = (bfy - pk->oy[r]) * pk->fy[r];
+      real fz = (bfz - pk->oz[r]) * pk->fz[r];
+      real t_entry;
+      int e = tr_slab_enters(nx, ny, nz, fx, fy, fz, pk->t[r] * grow, &t_entry) &
+              (int)((group_rays >> j) & 1u);
+      enter[r] = e;
+      entered += e;
+      group_in |= (unsigned)e << j;
+    }
+    in |= (tr_mask64)group_in << g;
+  }
+  *count = entered;
+  return in;
+}
+
+/* Offers the rays of `in` (bit r: ray r; enter[] as tr_packet_rays_in_box sets it) the
+ * primitives of the leaf child k of a node, listing them in rays[] first where the leaf
+ * goes ray by ray (tr_packet_leaf). */
+TR_FN_INLINE void tr_packet_leaf_rays(const TrSceneRef* s, TrRayPacket* pk, int first, int count,
+                                      tr_mask64 in, int entered, const int* enter, int* rays,
+                                      int any_hit) {
+  if (!tr_packet_leaf_in_lanes(entered, pk->n)) {
+    entered = 0;
+    for (; in != 0; in &= in - 1) rays[entered++] = TR_LOWEST_BIT64(in);
+  }
+  tr_packet_leaf(s, pk, first, count, enter, rays, entered, any_hit);
+}
+
 /* The greatest of the packet's nearest distances, grown as the box test grows them. */
 TR_FN_INLINE real tr_packet_tmax_grown(const TrRayPacket* pk) {
   return tr_lanes_max(pk->t, pk->n) * tr_box_grow();
-}
-
-/* Walks the W-wide BVH once for a coherent packet (tr_packet_begin returned 1). Closest
- * hit (any_hit = 0): offers each ray the primitives of the leaves its own box test
- * enters. Any hit: a ray stops at its first primitive in (0, pk->t[r]), which sets
- * pk->t[r] to -1; a negative t fails every box test after that. Inner children are
- * visited as in the ray walk (tr_walk_next: nearest first by the packet's entry bound
- * for closest hits, in bit order for any hits); a popped node is dropped once
- * every ray's nearest hit lies before it, and the walk ends when every ray is done.
- * Returns 1 when done; 0 when the packet stops paying for itself and gives up, after
- * 4 n + 16 nodes, or once 16 leaves have been tested and fewer rays entered them than
- * there were tests: a beam far wider than what its rays cover (shadow rays from a tile
- * of floor near the horizon, kilometres long, over a fine mesh) visited thousands of
- * nodes and made frames ten times slower. What was found stays; the caller walks the
- * rays one by one from there (tr_packet_bvh). */
-TR_FN_INLINE int tr_packet_walk_wide(const TrSceneRef* s, TrRayPacket* pk, int any_hit, int W) {
-  if (s->params->n_bvh_nodes <= 0) return 1;
-  int stack_node[TR_BVH_STACK_SIZE];
-  real stack_t[TR_BVH_STACK_SIZE];
-  int enter[TR_PACKET_MAX], rays[TR_PACKET_MAX];
-  int top = 0;
-  int index = 0;
-  real tmax_grown = tr_packet_tmax_grown(pk);
-  int visits_left = 4 * pk->n + 16;
-  int leaf_tests = 0, leaf_entries = 0;
-  for (;;) {
-    if (--visits_left < 0) return 0;
-    TR_GLOBAL const real* boxes = tr_bvh_node(s, index, W);
-    TR_GLOBAL const int* first = tr_bvh_node_links(boxes, W);
-    TR_GLOBAL const int* count = first + W;
-    real t_entry[TR_BVH_MAX_WIDTH];
-    unsigned mask = tr_packet_hits_boxes(boxes, pk, tmax_grown, W, t_entry);
-    unsigned inner = 0u;
-    int leaves_tested = 0;
-    while (mask != 0u) {
-      int k = TR_LOWEST_BIT(mask);
-      mask &= mask - 1u;
-      if (count[k] <= 0) {
-        inner |= count[k] == 0 ? 1u << k : 0u;
-        continue;
-      }
-      int entered = tr_packet_rays_enter_box(boxes, pk, W, k, enter, rays);
-      leaf_tests += 1;
-      leaf_entries += entered;
-      if (leaf_tests >= 16 && leaf_entries < leaf_tests) return 0;
-      if (entered == 0) continue;
-      leaves_tested = 1;
-      tr_packet_leaf(s, pk, first[k], count[k], enter, rays, entered, any_hit);
-    }
-    if (leaves_tested) {
-      tmax_grown = tr_packet_tmax_grown(pk);
-      if (tmax_grown < TR_R(0.0)) break; /* any hit: every ray is blocked */
-    }
-    int next = tr_walk_next(inner, t_entry, first, tmax_grown, !any_hit, stack_node, stack_t, &top);
-    if (next < 0) break;
-    index = next;
-  }
-  return 1;
 }
 
 /* Ray r's box-test view (tr_box_ray's values, from tr_packet_begin's arrays). */
@@ -370,118 +355,127 @@ TR_FN_INLINE TrBoxRay tr_packet_box_ray(const TrRayPacket* pk, int r) {
   return br;
 }
 
-/* Walks the W-wide BVH once for the rays of the packet in `active` (bit r: ray r;
- * tr_packet_begin has run), coherent or not: the masked traversal of ray streams
- * (Wald, Gribble, Boulos, Kensler, "SIMD Ray Stream Tracing", 2007; Fuetterling,
- * Lojewski, Pfreundt, Ebert, "Efficient Ray Tracing Kernels for Modern CPU
- * Architectures", JCGT 4(4), 2015). Each stack entry holds a node and the rays that
- * entered it; at a node each of those rays takes its own box test (tr_ray_hits_planes,
- * with its own nearest hit so far), and child k goes on with the rays that entered it.
- * A ray thus reaches every leaf that can hold its nearest hit (its box test culls only
- * beyond its nearest hit so far, which never falls below the final one) and is
- * offered only primitives of leaves it entered: the answers are tr_bvh_walk's, bit for
- * bit (tr_offer_hit's order; any hit: blocked or not). What the rays share is the
- * node: it is read once for all of them, and the order is chosen once. Inner children
- * go nearest first by the least entry distance among their rays (closest hit), or in
- * bit order (any hit, as tr_walk_next). When the rays share their direction signs
- * (`coherent`: tr_packet_begin's answer, true of every packet tr_packet_bvh walks here),
- * the rows of a node that their box tests read are picked once per node instead of once
- * per ray and node: mesh_1e6 frames took 0.95-0.99 of the time (docs/performance.md).
- * Where a coherent packet's rays spread out over fine geometry (a block's rays over a
- * 1e6-triangle mesh), interval culling (tr_packet_walk_wide) enters leaves none of them
- * enter, while each ray alone waits on memory for every node it reads. */
+/* Walks the W-wide BVH once for the rays of a coherent packet (tr_packet_begin returned
+ * 1) in `active` (bit r: ray r), with a mask of rays per stack entry, as Embree's walk
+ * of coherent ray streams does (BVHNIntersectorStream::intersectCoherent, after Wald,
+ * Gribble, Boulos, Kensler, "SIMD Ray Stream Tracing", 2007; Fuetterling, Lojewski,
+ * Pfreundt, Ebert, "Efficient Ray Tracing Kernels for Modern CPU Architectures", JCGT
+ * 4(4), 2015). At a node, the packet's interval test (tr_packet_hits_boxes) drops the
+ * children no ray can enter, and one ray known to enter the node (its `lead`) takes its
+ * own box test. An inner child the lead enters goes on with the node's rays as they
+ * are; any other goes on only with the node's rays whose own box tests enter it
+ * (tr_packet_rays_in_box), and is dropped if there are none. A leaf is offered to the
+ * rays whose own box tests enter it. So no node is visited that no ray enters, and
+ * each ray is offered exactly the leaves its own box test enters (a box's test fails
+ * for a ray whose test of an enclosing box failed: rounding is monotonic, and a ray's
+ * nearest hit only shrinks): the answers are tr_bvh_walk's, bit for bit (tr_offer_hit's
+ * order; any hit: blocked or not), and rays outside `active` are left untouched. Where
+ * a node's rays each took their own test of its children instead, mesh_1e6 frames took
+ * 1.09 times as long (docs/performance.md). Inner children go nearest first by the
+ * packet's entry bound (closest hit), or in bit order (any hit), as in tr_walk_next. */
 TR_FN_INLINE void tr_packet_walk_masked(const TrSceneRef* s, TrRayPacket* pk, tr_mask64 active,
-                                        int coherent, int any_hit, int W) {
-  if (s->params->n_bvh_nodes <= 0) return;
-  int stack_node[TR_BVH_STACK_SIZE];
+                                        int any_hit, int W) {
+  if (s->params->n_bvh_nodes <= 0 || active == 0) return;
+  int stack_node[TR_BVH_STACK_SIZE], stack_lead[TR_BVH_STACK_SIZE];
+  real stack_t[TR_BVH_STACK_SIZE];
   tr_mask64 stack_rays[TR_BVH_STACK_SIZE];
   int enter[TR_PACKET_MAX], rays[TR_PACKET_MAX];
-  for (int r = 0; r < pk->n; ++r) enter[r] = 0;
   real grow = tr_box_grow();
+  real tmax_grown = tr_packet_tmax_grown(pk);
   int top = 0;
   int index = 0;
   tr_mask64 live = active; /* any hit: the rays not blocked yet */
   tr_mask64 node_rays = active;
+  int lead = TR_LOWEST_BIT64(active);
   for (;;) {
     TR_GLOBAL const real* boxes = tr_bvh_node(s, index, W);
     TR_GLOBAL const int* first = tr_bvh_node_links(boxes, W);
     TR_GLOBAL const int* count = first + W;
+    real t_entry[TR_BVH_MAX_WIDTH];
+    unsigned mask = tr_packet_hits_boxes(boxes, pk, tmax_grown, W, t_entry);
+    unsigned lead_enters = 0u;
+    if (mask != 0u) {
+      TrBoxPlanes planes = tr_box_planes(boxes, pk->rows, W);
+      TrBoxRay lead_ray = tr_packet_box_ray(pk, lead);
+      real lead_t[TR_BVH_MAX_WIDTH];
+      lead_enters = tr_ray_hits_planes(&planes, &lead_ray, pk->t[lead] * grow, W, lead_t);
+    }
     tr_mask64 child_rays[TR_BVH_MAX_WIDTH];
-    real child_t[TR_BVH_MAX_WIDTH];
-    for (int k = 0; k < W; ++k) {
-      child_rays[k] = 0;
-      child_t[k] = TR_R(INFINITY);
-    }
-    unsigned entered_children = 0u;
-    TrBoxPlanes planes = tr_box_planes(boxes, pk->rows, W);
-    for (tr_mask64 m = node_rays; m != 0; m &= m - 1) {
-      int r = TR_LOWEST_BIT64(m);
-      TrBoxRay br = tr_packet_box_ray(pk, r);
-      if (!coherent) planes = tr_box_planes(boxes, br.rows, W);
-      real t_entry[TR_BVH_MAX_WIDTH];
-      unsigned hits = tr_ray_hits_planes(&planes, &br, pk->t[r] * grow, W, t_entry);
-      entered_children |= hits;
-      for (; hits != 0u; hits &= hits - 1u) {
-        int k = TR_LOWEST_BIT(hits);
-        child_rays[k] |= (tr_mask64)1 << r;
-        child_t[k] = t_entry[k] < child_t[k] ? t_entry[k] : child_t[k];
-      }
-    }
+    int child_lead[TR_BVH_MAX_WIDTH];
     unsigned inner = 0u;
     int leaves_tested = 0;
-    for (unsigned m = entered_children; m != 0u; m &= m - 1u) {
-      int k = TR_LOWEST_BIT(m);
-      if (count[k] <= 0) {
-        inner |= count[k] == 0 ? 1u << k : 0u;
+    while (mask != 0u) {
+      int k = TR_LOWEST_BIT(mask);
+      mask &= mask - 1u;
+      if (count[k] < 0) continue; /* an empty slot */
+      if (count[k] == 0 && ((lead_enters >> k) & 1u)) {
+        child_rays[k] = node_rays;
+        child_lead[k] = lead;
+        inner |= 1u << k;
         continue;
       }
-      int entered = 0;
-      for (tr_mask64 q = child_rays[k]; q != 0; q &= q - 1) rays[entered++] = TR_LOWEST_BIT64(q);
-      for (int q = 0; q < entered; ++q) enter[rays[q]] = 1;
-      tr_packet_leaf(s, pk, first[k], count[k], enter, rays, entered, any_hit);
-      for (int q = 0; q < entered; ++q) enter[rays[q]] = 0;
-      leaves_tested = 1;
-    }
-    if (any_hit && leaves_tested) {
-      for (tr_mask64 m = live; m != 0; m &= m - 1) {
-        int r = TR_LOWEST_BIT64(m);
-        if (pk->t[r] < TR_R(0.0)) live &= ~((tr_mask64)1 << r);
+      int entered;
+      tr_mask64 in = tr_packet_rays_in_box(boxes, pk, W, k, node_rays, enter, &entered);
+      if (entered == 0) continue;
+      if (count[k] == 0) {
+        child_rays[k] = in;
+        child_lead[k] = TR_LOWEST_BIT64(in);
+        inner |= 1u << k;
+        continue;
       }
-      if (live == 0) break;
+      leaves_tested = 1;
+      tr_packet_leaf_rays(s, pk, first[k], count[k], in, entered, enter, rays, any_hit);
     }
-    /* The next node: an inner child, the others pushed (nearest first for closest
-     * hits: pushed farthest first), else the top of the stack. */
-    int next = -1;
-    tr_mask64 next_rays = 0;
+    if (leaves_tested) {
+      tmax_grown = tr_packet_tmax_grown(pk);
+      if (any_hit) {
+        if (tmax_grown < TR_R(0.0)) break; /* every ray is blocked */
+        tr_mask64 unblocked = 0;
+        for (int r = 0; r < pk->n; ++r) unblocked |= (tr_mask64)(pk->t[r] >= TR_R(0.0)) << r;
+        live &= unblocked;
+      }
+    }
+    /* The next node: the first inner child (nearest first for closest hits), the
+     * others pushed (farthest first), else the top of the stack. */
     int n_inner = 0;
     int order[TR_BVH_MAX_WIDTH];
     for (unsigned m = inner; m != 0u; m &= m - 1u) {
       int k = TR_LOWEST_BIT(m);
+      if (t_entry[k] > tmax_grown) continue;
       int j = n_inner++;
       if (!any_hit)
-        for (; j > 0 && child_t[order[j - 1]] > child_t[k]; --j) order[j] = order[j - 1];
+        for (; j > 0 && t_entry[order[j - 1]] > t_entry[k]; --j) order[j] = order[j - 1];
       order[j] = k;
     }
-    if (n_inner > 0) {
-      for (int j = n_inner - 1; j > 0; --j) {
-        if (top < TR_BVH_STACK_SIZE) {
-          stack_node[top] = first[order[j]];
-          stack_rays[top] = child_rays[order[j]];
-          ++top;
-        }
+    for (int j = n_inner - 1; j > 0; --j) {
+      if (top < TR_BVH_STACK_SIZE) {
+        int k = order[j];
+        stack_node[top] = first[k];
+        stack_t[top] = t_entry[k];
+        stack_rays[top] = child_rays[k];
+        stack_lead[top] = child_lead[k];
+        ++top;
       }
-      next = first[order[0]];
+    }
+    int next = -1;
+    tr_mask64 next_rays = 0;
+    if (n_inner > 0) {
       next_rays = child_rays[order[0]] & live;
+      next = next_rays != 0 ? first[order[0]] : -1;
+      lead = child_lead[order[0]];
     }
     while (next < 0 && top > 0) {
       --top;
-      tr_mask64 popped = stack_rays[top] & live;
-      if (popped != 0) {
+      next_rays = stack_rays[top] & live;
+      if (next_rays != 0 && stack_t[top] <= tmax_grown) {
         next = stack_node[top];
-        next_rays = popped;
+        lead = stack_lead[top];
       }
     }
     if (next < 0) break;
+    /* Any hit: a blocked lead is replaced by a ray still live (which may not enter
+     * the node: the lead only saves tests, and a wrong guess costs some). */
+    if (!((next_rays >> lead) & 1u)) lead = TR_LOWEST_BIT64(next_rays);
     index = next;
     node_rays = next_rays;
   }
@@ -500,40 +494,26 @@ TR_FN_NOINLINE int tr_bvh_blocked(const TrSceneRef* s, const TrRay* ray, real tm
   return tr_bvh_walk(s, *ray, &limit, 1);
 }
 
-/* The most primitives in the BVH for which shadow packets try interval culling
- * (tr_packet_walk_wide) before the masked walk. A block's shadow rays toward a light
- * form a beam from its hits; over denser geometry the beam crosses more small leaves
- * than its rays share. Measured with the masked walk behind it, trying interval culling
- * first there made frames of mesh_1e6 and spheres_1e6 1.06 and 1.08 times as long
- * (before the masked walk, ray by ray against packets: 0.91 and 0.96; about even at
- * 3e5 primitives, packets ahead at 1e5; docs/performance.md). Either way the answers
- * are the same. */
-#define TR_SHADOW_PACKET_MAX_PRIMS 524288
-
 /* The BVH part of a packet query (pk->t and pk->prim set, tr_packet_begin's answer in
- * coherent), on an 8-wide tree: a coherent packet walks with interval culling
- * (tr_packet_walk_wide), and where that gives up or is skipped (shadow rays over dense
- * geometry) the masked walk takes its unfinished rays (TR_PACKET_MASKED: on the host,
- * and on OpenCL for large scenes; else they go ray by ray); an incoherent packet goes ray
- * by ray. Its rays share few nodes (reflections off curved mirrors: 3.4 rays per node
- * visit on spheres_1e6, against 18-20 for mesh_1e6's coherent packets), and the masked
- * walk made spheres_1e6 frames 5% slower there. Packets walk only the 8-wide trees
- * both backends build for CPUs (bvh::kCpuWidth): each width is a copy of the walks in
- * every instantiation of the device code, and two more widths made a rendering
- * translation unit compile 40% longer. Closest hit: each ray's nearest (t, primitive)
- * in pk->t and pk->prim. Any hit: pk->t[r] < 0 where ray r is blocked. */
+ * coherent), on an 8-wide tree: a coherent packet takes the masked walk, an incoherent
+ * one goes ray by ray. Its rays share few nodes (reflections off curved mirrors: 3.4
+ * rays per node visit on spheres_1e6, against 18-20 for mesh_1e6's coherent packets),
+ * and walking them as a packet made spheres_1e6 frames 5% slower. Packets walk only
+ * the 8-wide trees both backends build for CPUs (bvh::kCpuWidth): each width is a copy
+ * of the walk in every instantiation of the device code, and two more widths made a
+ * rendering translation unit compile 40% longer. Closest hit: each ray's nearest
+ * (t, primitive) in pk->t and pk->prim. Any hit: pk->t[r] < 0 where ray r is blocked. */
 TR_FN void tr_packet_bvh(const TrSceneRef* s, TrRayPacket* pk, int coherent, int any_hit) {
   if (coherent && tr_use(s, TR_F_BVH8)) {
-    int dense =
-        any_hit && s->params->n_spheres + s->params->n_triangles > TR_SHADOW_PACKET_MAX_PRIMS;
-    if (!dense && tr_packet_walk_wide(s, pk, any_hit, 8)) return;
-    if (TR_PACKET_MASKED) {
-      tr_mask64 active = 0;
-      for (int r = 0; r < pk->n; ++r)
-        if (pk->t[r] >= TR_R(0.0)) active |= (tr_mask64)1 << r;
-      tr_packet_walk_masked(s, pk, active, 1, any_hit, 8);
-      return;
-    }
+    tr_mask64 active = 0;
+    for (int r = 0; r < pk->n; ++r) active |= (tr_mask64)(pk->t[r] >= TR_R(0.0)) << r;
+    /* A copy of the walk for each kind of query, any_hit a constant in each: frames of
+     * the 1e5 and 1e6 scenes took 0.97-0.98 of the time (docs/performance.md). */
+    if (any_hit)
+      tr_packet_walk_masked(s, pk, active, 1, 8);
+    else
+      tr_packet_walk_masked(s, pk, active, 0, 8);
+    return;
   }
   for (int r = 0; r < pk->n; ++r) {
     if (any_hit) {

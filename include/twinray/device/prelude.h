@@ -20,14 +20,6 @@
  *                       unrolling a short constant-trip loop into scalar code before its
  *                       vectorizer sees it (the 4-wide box loop stayed scalar); nothing
  *                       elsewhere
- *   TR_PACKET_MASKED    1 where a coherent packet that stops paying for interval culling
- *                       finishes in the masked walk (bvh_packet.h): the host, and OpenCL
- *                       programs for scenes of more than TR_SHADOW_PACKET_MAX_PRIMS
- *                       primitives, whose shadow rays take it at once (the backend
- *                       passes -DTR_PACKET_MASKED=1: PoCL's frames of 1e6 triangles took
- *                       0.84-0.90 of the time). 0 in the other OpenCL programs, where
- *                       those rays go one by one: there the walk made PoCL compile the
- *                       block kernel 10-25% longer and frames moved within the noise
  *   TR_LOWEST_BIT(m)    index of the lowest set bit of a nonzero unsigned int (an
  *                       integer builtin on both sides: exact, so parity is not at stake)
  *   tr_mask64, TR_LOWEST_BIT64(m)
@@ -85,9 +77,6 @@ typedef float3 vec3;
 typedef ulong tr_mask64;
 #define TR_LOWEST_BIT64(m) (63 - (int)clz((m) & ((tr_mask64)0 - (m))))
 #define TR_SIMD_LOOP
-#ifndef TR_PACKET_MASKED
-#define TR_PACKET_MASKED 0
-#endif
 #ifndef TR_FEATURES
 #error "TR_FEATURES (the Features mask) must be passed as a build option"
 #endif
@@ -112,7 +101,6 @@ typedef ulong tr_mask64;
 #else
 #define TR_SIMD_LOOP
 #endif
-#define TR_PACKET_MASKED 1
 namespace twinray {
 namespace device {
 typedef unsigned long long tr_mask64;

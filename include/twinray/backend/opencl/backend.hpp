@@ -126,16 +126,6 @@ class OpenCLBackend final : public RenderBackend<T> {
     return kernel_choice() != "blocks" && !(first && std::string(first) == "blocks");
   }
 
-  // Whether a block kernel's program holds the packets' masked walk for this scene:
-  // where its shadow packets take it at once, over more than TR_SHADOW_PACKET_MAX_PRIMS
-  // bounded primitives (device/bvh_packet.h). There PoCL's frames of 1e6 triangles took
-  // 0.84-0.90 of the time with it; on smaller scenes it only made the program compile
-  // longer (docs/performance.md).
-  bool masked_walk_pays() const {
-    return static_cast<long long>(scene_.n_spheres) + scene_.n_triangles >
-           TR_SHADOW_PACKET_MAX_PRIMS;
-  }
-
   void render_into(const RenderRequest<T>& request, Image<T>& image,
                    RenderInfo* info = nullptr) override {
     using clock = std::chrono::steady_clock;
@@ -154,8 +144,7 @@ class OpenCLBackend final : public RenderBackend<T> {
                        : renders_blocks()                         ? TR_ENTRY_BLOCKS
                                                                   : TR_ENTRY_RENDER;
     auto options_for = [&](int entry) {
-      return build_options(dev, features, sizeof(T) == 8, entry, request.options.specialize,
-                           entry == TR_ENTRY_BLOCKS && masked_walk_pays());
+      return build_options(dev, features, sizeof(T) == 8, entry, request.options.specialize);
     };
     // The first frame that needs a block program never asked for on this machine (no
     // marker in the disk cache: PoCL's cache is cold for it too) renders with the pixel

@@ -37,17 +37,13 @@ namespace opencl {
 // docs/architecture.md, "Bitwise parity"). exact: the program only renders frames
 // whose mask is `features` itself (-DTR_EXACT_FEATURES: tr_use reads no run-time
 // bits, so the code of the frame's clear bits is dead); else, as the generic program
-// TR_F_ALL does, it follows each frame's bits at run time. masked_walk: the program
-// holds the packets' masked walk (TR_PACKET_MASKED, device/prelude.h), which pays on
-// scenes whose shadow rays take it (OpenCLBackend::masked_walk_pays).
+// TR_F_ALL does, it follows each frame's bits at run time.
 inline std::string build_options(const DeviceInfo& device, unsigned features, bool use_double,
-                                 int entry_points = TR_ENTRY_ALL, bool exact = false,
-                                 bool masked_walk = false) {
+                                 int entry_points = TR_ENTRY_ALL, bool exact = false) {
   char mask[32];
   std::snprintf(mask, sizeof mask, "0x%03xu", features);
   std::string options = std::string("-cl-std=CL1.2 -DTR_FEATURES=") + mask;
   if (exact) options += " -DTR_EXACT_FEATURES";
-  if (masked_walk) options += " -DTR_PACKET_MASKED=1";
   if (entry_points != TR_ENTRY_ALL) options += " -DTR_ENTRY_POINTS=" + std::to_string(entry_points);
   if (use_double) options += " -DTR_DOUBLE";
   if (device.correctly_rounded_divide_sqrt) options += " -cl-fp32-correctly-rounded-divide-sqrt";
