@@ -288,8 +288,9 @@ TR_FN_INLINE void tr_packet_leaf(const TrSceneRef* s, TrRayPacket* pk, int first
 /* The rays of `rays` (bit r: ray r) that enter child k's box before their own nearest
  * hits so far (grown): each ray's own test, tr_ray_hits_boxes's operations in the same
  * order, a ray per SIMD lane, TR_PACKET_GROUP rays at a time; a group with none of
- * `rays` is skipped. Sets enter[r] for r in [0, n) to whether ray r is one of them, and
- * *count to how many there are. */
+ * `rays` is skipped (the lanes past n, which tr_packet_begin pads, are never in it).
+ * Sets enter[r] for r in [0, n) to whether ray r is one of them, and *count to how many
+ * there are. */
 TR_FN_INLINE tr_mask64 tr_packet_rays_in_box(TR_GLOBAL const real* boxes, const TrRayPacket* pk,
                                              int W, int k, tr_mask64 rays, int* enter, int* count) {
   TrBoxPlanes p = tr_box_planes(boxes, pk->rows, W);
@@ -327,9 +328,10 @@ TR_FN_INLINE tr_mask64 tr_packet_rays_in_box(TR_GLOBAL const real* boxes, const 
   return in;
 }
 
-/* Offers the rays of `in` (bit r: ray r; enter[] as tr_packet_rays_in_box sets it) the
- * primitives of the leaf child k of a node, listing them in rays[] first where the leaf
- * goes ray by ray (tr_packet_leaf). */
+/* Offers the rays of `in` (bit r: ray r; `entered` of them, enter[] as
+ * tr_packet_rays_in_box sets it) the leaf's primitives bvh_prims[first .. first +
+ * count), listing the rays in rays[] first where the leaf goes ray by ray
+ * (tr_packet_leaf). */
 TR_FN_INLINE void tr_packet_leaf_rays(const TrSceneRef* s, TrRayPacket* pk, int first, int count,
                                       tr_mask64 in, int entered, const int* enter, int* rays,
                                       int any_hit) {
@@ -371,7 +373,7 @@ TR_FN_INLINE TrBoxRay tr_packet_box_ray(const TrRayPacket* pk, int r) {
  * nearest hit only shrinks): the answers are tr_bvh_walk's, bit for bit (tr_offer_hit's
  * order; any hit: blocked or not), and rays outside `active` are left untouched. Where
  * a node's rays each took their own test of its children instead, mesh_1e6 frames took
- * 1.09 times as long (docs/performance.md). Inner children go nearest first by the
+ * 1.08 times as long (docs/performance.md). Inner children go nearest first by the
  * packet's entry bound (closest hit), or in bit order (any hit), as in tr_walk_next. */
 TR_FN_INLINE void tr_packet_walk_masked(const TrSceneRef* s, TrRayPacket* pk, tr_mask64 active,
                                         int any_hit, int W) {
