@@ -175,8 +175,9 @@ TR_FN_INLINE unsigned tr_ray_hits_boxes(TR_GLOBAL const real* boxes, const TrBox
  * others farthest first (insertion sort into a list of at most W), so it shortens tmax
  * soon. An any-hit walk may stop at whichever blocker it meets first, so it skips the
  * sort and takes the children in bit order, as Embree's occlusion walk does: 4-5%
- * faster frames on spheres_1e5/1e6 (docs/performance.md). Shared by the ray walk and
- * the packet walk (bvh_packet.h). */
+ * faster frames on spheres_1e5/1e6 (docs/performance.md). The ray walk's; the packet
+ * walk orders its children the same way, each entry with its rays' mask and lead ray
+ * (tr_packet_walk_masked, bvh_packet.h). */
 TR_FN_INLINE int tr_walk_next(unsigned inner, const real* t_entry, TR_GLOBAL const int* first,
                               real tmax_grown, int nearest_first, int* stack_node, real* stack_t,
                               int* top) {
