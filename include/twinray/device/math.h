@@ -100,13 +100,6 @@ TR_FN real tr_two_square(real a, real* err) {
   return p;
 }
 
-/* x^p for x in [0, 1] and any real p >= 0, from exactly rounded operations only, so
- * both sides agree bit for bit (the built-in pow differs by 1-2 ulp between glibc and
- * PoCL's SLEEF). The integer part of p goes by repeated squaring; the fractional part
- * 0.b1 b2 b3... by its binary digits, x^(2^-k) being k square roots of x. Each step
- * rounds once; like any multiplication chain for x^n its relative error is bounded by
- * about (p + digits) ulp (in practice far less: 8e-5 relative at p = 1e4 in float),
- * invisible in a highlight and the same on both sides. */
 /* result[l] times base[l]^bits for l < n, by squaring from the lowest bit: for each set
  * bit the result is multiplied by the base, then the base squared while bits remain.
  * tr_pow_unit's integer steps, for one value or for a block's hits at once
@@ -121,6 +114,13 @@ TR_FN void tr_pow_bits(real* result, real* base, int n, int bits) {
   }
 }
 
+/* x^p for x in [0, 1] and any real p >= 0, from exactly rounded operations only, so
+ * both sides agree bit for bit (the built-in pow differs by 1-2 ulp between glibc and
+ * PoCL's SLEEF). The integer part of p goes by repeated squaring; the fractional part
+ * 0.b1 b2 b3... by its binary digits, x^(2^-k) being k square roots of x. Each step
+ * rounds once; like any multiplication chain for x^n its relative error is bounded by
+ * about (p + digits) ulp (in practice far less: 8e-5 relative at p = 1e4 in float),
+ * invisible in a highlight and the same on both sides. */
 TR_FN real tr_pow_unit(real x, real p) {
   real result = TR_R(1.0);
   real whole = floor(p);
