@@ -286,16 +286,16 @@ TR_FN_INLINE void tr_packet_leaf(const TrSceneRef* s, TrRayPacket* pk, int first
 }
 
 /* The rays of `rays` (bit r: ray r) that enter child k's box before their own nearest
- * hits so far (grown): each ray's own test, tr_ray_hits_boxes's operations in the same
- * order, a ray per SIMD lane, TR_PACKET_GROUP rays at a time; a group with none of
+ * hits so far (grown): each ray's own test, tr_ray_enters_box as tr_ray_hits_boxes
+ * makes it, a ray per SIMD lane, TR_PACKET_GROUP rays at a time; a group with none of
  * `rays` is skipped (the lanes past n, which tr_packet_begin pads, are never in it).
  * Sets enter[r] for r in [0, n) to whether ray r is one of them, and *count to how many
  * there are. */
 TR_FN_INLINE tr_mask64 tr_packet_rays_in_box(TR_GLOBAL const real* boxes, const TrRayPacket* pk,
                                              int W, int k, tr_mask64 rays, int* enter, int* count) {
   TrBoxPlanes p = tr_box_planes(boxes, pk->rows, W);
-  real bnx = p.near_x[k], bny = p.near_y[k], bnz = p.near_z[k];
-  real bfx = p.far_x[k], bfy = p.far_y[k], bfz = p.far_z[k];
+  vec3 box_near = TR_VEC3(p.near_x[k], p.near_y[k], p.near_z[k]);
+  vec3 box_far = TR_VEC3(p.far_x[k], p.far_y[k], p.far_z[k]);
   real grow = tr_box_grow();
   tr_mask64 in = 0;
   int entered = 0;
@@ -309,14 +309,11 @@ TR_FN_INLINE tr_mask64 tr_packet_rays_in_box(TR_GLOBAL const real* boxes, const 
     TR_SIMD_LOOP
     for (int j = 0; j < TR_PACKET_GROUP; ++j) {
       int r = g + j;
-      real nx = (bnx - pk->ox[r]) * pk->ix[r];
-      real ny = (bny - pk->oy[r]) * pk->iy[r];
-      real nz = (bnz - pk->oz[r]) * pk->iz[r];
-      real fx = (bfx - pk->ox[r]) * pk->fx[r];
-      real fy = (bfy - pk->oy[r]) * pk->fy[r];
-      real fz = (bfz - pk->oz[r]) * pk->fz[r];
+      vec3 o = TR_VEC3(pk->ox[r], pk->oy[r], pk->oz[r]);
+      vec3 inv_d = TR_VEC3(pk->ix[r], pk->iy[r], pk->iz[r]);
+      vec3 inv_d_far = TR_VEC3(pk->fx[r], pk->fy[r], pk->fz[r]);
       real t_entry;
-      int e = tr_slab_enters(nx, ny, nz, fx, fy, fz, pk->t[r] * grow, &t_entry) &
+      int e = tr_ray_enters_box(box_near, box_far, o, inv_d, inv_d_far, pk->t[r] * grow, &t_entry) &
               (int)((group_rays >> j) & 1u);
       enter[r] = e;
       entered += e;

@@ -132,6 +132,23 @@ TR_FN_INLINE int tr_slab_enters(real nx, real ny, real nz, real fx, real fy, rea
   return t0 <= t1;
 }
 
+/* Whether a ray enters the box whose near planes (those its direction meets first, as
+ * tr_slab_rows picks them) are box_near and far planes box_far, before tmax: the six slab
+ * distances from the ray's origin o, reciprocal direction inv_d and its padded copy
+ * inv_d_far (tr_box_ray), then tr_slab_enters. In scalars, so that a loop over a
+ * node's boxes (tr_ray_hits_planes) or over a packet's rays (tr_packet_rays_in_box)
+ * vectorizes on PoCL as well as in g++. */
+TR_FN_INLINE int tr_ray_enters_box(vec3 box_near, vec3 box_far, vec3 o, vec3 inv_d, vec3 inv_d_far,
+                                   real tmax, real* t_entry) {
+  real nx = (box_near.x - o.x) * inv_d.x;
+  real ny = (box_near.y - o.y) * inv_d.y;
+  real nz = (box_near.z - o.z) * inv_d.z;
+  real fx = (box_far.x - o.x) * inv_d_far.x;
+  real fy = (box_far.y - o.y) * inv_d_far.y;
+  real fz = (box_far.z - o.z) * inv_d_far.z;
+  return tr_slab_enters(nx, ny, nz, fx, fy, fz, tmax, t_entry);
+}
+
 /* The slab test of one wide node's W boxes (the Williams et al. 2005 slab method; see
  * tr_box_ray), read from the node's rows that the signs of the direction pick
  * (tr_box_planes: once per ray, or once per node for a packet whose rays share the
@@ -147,15 +164,13 @@ TR_FN_INLINE unsigned tr_ray_hits_planes(const TrBoxPlanes* p, const TrBoxRay* b
   unsigned mask = 0u;
   TR_SIMD_LOOP
   for (int k = 0; k < W; ++k) {
-    real nx = (p->near_x[k] - br->o.x) * br->inv_d.x;
-    real ny = (p->near_y[k] - br->o.y) * br->inv_d.y;
-    real nz = (p->near_z[k] - br->o.z) * br->inv_d.z;
-    real fx = (p->far_x[k] - br->o.x) * br->inv_d_far.x;
-    real fy = (p->far_y[k] - br->o.y) * br->inv_d_far.y;
-    real fz = (p->far_z[k] - br->o.z) * br->inv_d_far.z;
+    vec3 box_near = TR_VEC3(p->near_x[k], p->near_y[k], p->near_z[k]);
+    vec3 box_far = TR_VEC3(p->far_x[k], p->far_y[k], p->far_z[k]);
     /* The mask is set in this loop, not from a stored array of flags: g++ then builds
      * it with one vector shift and OR reduction instead of extracting W scalars. */
-    mask |= (unsigned)tr_slab_enters(nx, ny, nz, fx, fy, fz, tmax_grown, &t_entry[k]) << k;
+    mask |= (unsigned)tr_ray_enters_box(box_near, box_far, br->o, br->inv_d, br->inv_d_far,
+                                        tmax_grown, &t_entry[k])
+            << k;
   }
   return mask;
 }
