@@ -70,21 +70,21 @@ struct DeviceInfo {
 };
 
 namespace detail {
-inline std::string platform_string(cl_platform_id p, cl_platform_info what) {
+// A string query of clGetPlatformInfo or clGetDeviceInfo (`get`); "" where it fails.
+template <class Get, class Object, class Info>
+std::string info_string(Get get, Object object, Info what) {
   size_t size = 0;
-  if (clGetPlatformInfo(p, what, 0, nullptr, &size) != CL_SUCCESS || size == 0) return "";
+  if (get(object, what, 0, nullptr, &size) != CL_SUCCESS || size == 0) return "";
   std::string s(size, '\0');
-  clGetPlatformInfo(p, what, size, &s[0], nullptr);
+  get(object, what, size, &s[0], nullptr);
   s.resize(std::strlen(s.c_str()));
   return s;
 }
+inline std::string platform_string(cl_platform_id p, cl_platform_info what) {
+  return info_string(&clGetPlatformInfo, p, what);
+}
 inline std::string device_string(cl_device_id d, cl_device_info what) {
-  size_t size = 0;
-  if (clGetDeviceInfo(d, what, 0, nullptr, &size) != CL_SUCCESS || size == 0) return "";
-  std::string s(size, '\0');
-  clGetDeviceInfo(d, what, size, &s[0], nullptr);
-  s.resize(std::strlen(s.c_str()));
-  return s;
+  return info_string(&clGetDeviceInfo, d, what);
 }
 template <class V>
 V device_value(cl_device_id d, cl_device_info what) {
