@@ -51,6 +51,12 @@ std::string format_vec(const glm::vec<3, T>& v) {
   throw invalid_input(path + ": " + problem);
 }
 
+// A count that must lie in [1, most].
+inline void require_count(const char* path, long long value, long long most) {
+  if (value < 1 || value > most)
+    refuse(path, "must be in [1, " + std::to_string(most) + "], got " + std::to_string(value));
+}
+
 // A path is a string, or a function that makes it: the checks below format a value's
 // path only when they refuse it, so validating a million primitives formats no strings.
 inline std::string path_text(const std::string& path) {
@@ -161,12 +167,8 @@ long long validate_texture(const std::string& base, const Texture<T>& t) {
 template <class T>
 void validate(const Camera<T>& camera) {
   using detail::refuse;
-  if (camera.width < 1 || camera.width > Limits::max_image_side)
-    refuse("image.width", "must be in [1, " + std::to_string(Limits::max_image_side) + "], got " +
-                              std::to_string(camera.width));
-  if (camera.height < 1 || camera.height > Limits::max_image_side)
-    refuse("image.height", "must be in [1, " + std::to_string(Limits::max_image_side) + "], got " +
-                               std::to_string(camera.height));
+  detail::require_count("image.width", camera.width, Limits::max_image_side);
+  detail::require_count("image.height", camera.height, Limits::max_image_side);
   if (static_cast<long long>(camera.width) * camera.height > Limits::max_pixels)
     refuse("image", "width x height must be at most " + std::to_string(Limits::max_pixels) +
                         " pixels, got " + std::to_string(camera.width) + " x " +
@@ -331,12 +333,8 @@ void validate(const Scene<T>& scene) {
 // threshold >= 0.
 inline void validate(const RenderOptions& options) {
   using detail::refuse;
-  if (options.spp < 1 || options.spp > Limits::max_spp)
-    refuse("render.spp", "must be in [1, " + std::to_string(Limits::max_spp) + "], got " +
-                             std::to_string(options.spp));
-  if (options.max_depth < 1 || options.max_depth > Limits::max_depth)
-    refuse("render.max_depth", "must be in [1, " + std::to_string(Limits::max_depth) + "], got " +
-                                   std::to_string(options.max_depth));
+  detail::require_count("render.spp", options.spp, Limits::max_spp);
+  detail::require_count("render.max_depth", options.max_depth, Limits::max_depth);
   if ((options.terms & ~unsigned(kAllTerms)) != 0u)
     refuse("render.terms", "unknown term bits " + std::to_string(options.terms));
   if (options.adaptive_spp != 0 &&
