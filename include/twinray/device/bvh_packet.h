@@ -371,7 +371,7 @@ TR_FN_INLINE TrBoxRay tr_packet_box_ray(const TrRayPacket* pk, int r) {
  * order; any hit: blocked or not), and rays outside `active` are left untouched. Where
  * a node's rays each took their own test of its children instead, mesh_1e6 frames took
  * 1.08 times as long (docs/performance.md). Inner children go nearest first by the
- * packet's entry bound (closest hit), or in bit order (any hit), as in tr_walk_next.
+ * packet's entry bound (closest hit), or in bit order (any hit): tr_inner_order.
  * Bit order is the collapse's left to right; for shadow rays, nearest first took 1.08-1.10
  * times as long on the benchmark scenes, and the best order depends on where the light
  * is (docs/performance.md). */
@@ -439,16 +439,8 @@ TR_FN_INLINE void tr_packet_walk_masked(const TrSceneRef* s, TrRayPacket* pk, tr
     }
     /* The next node: the first inner child (nearest first for closest hits), the
      * others pushed (farthest first), else the top of the stack. */
-    int n_inner = 0;
     int order[TR_BVH_MAX_WIDTH];
-    for (unsigned m = inner; m != 0u; m &= m - 1u) {
-      int k = TR_LOWEST_BIT(m);
-      if (t_entry[k] > tmax_grown) continue;
-      int j = n_inner++;
-      if (!any_hit)
-        for (; j > 0 && t_entry[order[j - 1]] > t_entry[k]; --j) order[j] = order[j - 1];
-      order[j] = k;
-    }
+    int n_inner = tr_inner_order(inner, t_entry, tmax_grown, !any_hit, order);
     for (int j = n_inner - 1; j > 0; --j) {
       if (top < TR_BVH_STACK_SIZE) {
         int k = order[j];

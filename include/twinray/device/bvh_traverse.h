@@ -182,61 +182,44 @@ TR_FN_INLINE unsigned tr_ray_hits_boxes(TR_GLOBAL const real* boxes, const TrBox
   return tr_ray_hits_planes(&p, br, tmax_grown, W, t_entry);
 }
 
-/* The node a walk visits next: one of the inner children entered (bits of `inner`,
- * entry distances t_entry, node indices first[]) no later than tmax_grown, with the
- * others pushed; else the top of the stack, skipping entries entered beyond tmax_grown
- * (a box entered exactly there can hold a tie, and is kept). -1 when the walk is done.
- * A closest-hit walk (nearest_first) goes on into the nearest child and pushes the
- * others farthest first (insertion sort into a list of at most W), so it shortens tmax
- * soon. An any-hit walk may stop at whichever blocker it meets first, so it skips the
- * sort and takes the children in bit order, as Embree's occlusion walk does: 4-5%
- * faster frames on spheres_1e5/1e6 (docs/performance.md). The ray walk's; the packet
- * walk orders its children the same way, each entry with its rays' mask and lead ray
- * (tr_packet_walk_masked, bvh_packet.h). */
+/* The inner children a walk goes on to (bits of `inner`, entry distances t_entry), in
+ * order[0 .. n), n returned: those entered no later than tmax_grown (a box entered
+ * exactly there can hold a tie, and is kept); nearest first (insertion sort into a list
+ * of at most W, so a closest-hit walk shortens tmax soon), or in bit order. An any-hit
+ * walk may stop at whichever blocker it meets first, so it skips the sort, as Embree's
+ * occlusion walk does: 4-5% faster frames on spheres_1e5/1e6 (docs/performance.md).
+ * Shared by the ray walk (tr_walk_next) and the packet walk (tr_packet_walk_masked,
+ * bvh_packet.h). */
+TR_FN_INLINE int tr_inner_order(unsigned inner, const real* t_entry, real tmax_grown,
+                                int nearest_first, int* order) {
+  int n = 0;
+  for (; inner != 0u; inner &= inner - 1u) {
+    int k = TR_LOWEST_BIT(inner);
+    if (t_entry[k] > tmax_grown) continue;
+    int j = n++;
+    if (nearest_first)
+      for (; j > 0 && t_entry[order[j - 1]] > t_entry[k]; --j) order[j] = order[j - 1];
+    order[j] = k;
+  }
+  return n;
+}
+
+/* The node the ray walk visits next: the first of the inner children tr_inner_order
+ * gives (node indices first[]), with the others pushed (nearest first: farthest pushed
+ * first; bit order: in bit order); else the top of the stack, skipping entries entered
+ * beyond tmax_grown. -1 when the walk is done. */
 TR_FN_INLINE int tr_walk_next(unsigned inner, const real* t_entry, TR_GLOBAL const int* first,
                               real tmax_grown, int nearest_first, int* stack_node, real* stack_t,
                               int* top) {
-  int next = -1;
-  if (nearest_first) {
-    int n_inner = 0;
-    int inner_node[TR_BVH_MAX_WIDTH];
-    real inner_t[TR_BVH_MAX_WIDTH];
-    while (inner != 0u) {
-      int k = TR_LOWEST_BIT(inner);
-      inner &= inner - 1u;
-      real t = t_entry[k];
-      if (t > tmax_grown) continue;
-      int j = n_inner++;
-      for (; j > 0 && inner_t[j - 1] > t; --j) {
-        inner_t[j] = inner_t[j - 1];
-        inner_node[j] = inner_node[j - 1];
-      }
-      inner_t[j] = t;
-      inner_node[j] = first[k];
-    }
-    if (n_inner > 0) {
-      for (int j = n_inner - 1; j > 0; --j) {
-        if (*top < TR_BVH_STACK_SIZE) {
-          stack_node[*top] = inner_node[j];
-          stack_t[*top] = inner_t[j];
-          ++*top;
-        }
-      }
-      next = inner_node[0];
-    }
-  } else {
-    while (inner != 0u) {
-      int k = TR_LOWEST_BIT(inner);
-      inner &= inner - 1u;
-      real t = t_entry[k];
-      if (t > tmax_grown) continue;
-      if (next < 0) {
-        next = first[k];
-      } else if (*top < TR_BVH_STACK_SIZE) {
-        stack_node[*top] = first[k];
-        stack_t[*top] = t;
-        ++*top;
-      }
+  int order[TR_BVH_MAX_WIDTH];
+  int n = tr_inner_order(inner, t_entry, tmax_grown, nearest_first, order);
+  int next = n > 0 ? first[order[0]] : -1;
+  for (int i = 1; i < n; ++i) {
+    int k = order[nearest_first ? n - i : i];
+    if (*top < TR_BVH_STACK_SIZE) {
+      stack_node[*top] = first[k];
+      stack_t[*top] = t_entry[k];
+      ++*top;
     }
   }
   while (next < 0 && *top > 0) {
