@@ -18,7 +18,6 @@ namespace device {
 // The scalar math the device files call unqualified; std's float overloads are picked.
 using std::fabs;
 using std::floor;
-using std::nextafter;
 using std::sqrt;
 
 namespace f32 {

@@ -36,7 +36,7 @@
  *
  * Parity rules (docs/architecture.md, "Bitwise parity"): no floating-point contraction on either
  * side, and device code calls no built-in whose result is implementation-defined; it
- * uses + - * /, sqrt, fabs, floor, nextafter and comparisons only. */
+ * uses + - * /, sqrt, fabs, floor and comparisons only. */
 #ifndef TWINRAY_DEVICE_PRELUDE_H
 #define TWINRAY_DEVICE_PRELUDE_H
 
