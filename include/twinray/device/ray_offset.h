@@ -1,3 +1,8 @@
+/* x moved g further from 0 (g >= 0); 0 stays 0. */
+TR_FN_INLINE real tr_grow_away_from_zero(real x, real g) {
+  return x > TR_R(0.0) ? x + g : (x < TR_R(0.0) ? x - g : x);
+}
+
 /* Origins of secondary rays (shadow, glaze), offset off the surface by the hit point's
  * own error bound instead of a fixed epsilon (pbrt-v4 OffsetRayOrigin; Pharr, Jakob,
  * Humphreys, PBR 4th ed. 6.8.6; Waechter and Binder, Ray Tracing Gems ch. 6): move
@@ -18,8 +23,8 @@ TR_FN vec3 tr_offset_ray_origin(vec3 p, vec3 perr, vec3 n, vec3 w) {
   vec3 o = n * dist;
   if (tr_dot(w, n) < TR_R(0.0)) o = -o;
   vec3 g = (tr_abs3(p) + tr_abs3(o)) * (TR_R(4.0) * tr_unit_roundoff());
-  o.x = o.x > TR_R(0.0) ? o.x + g.x : (o.x < TR_R(0.0) ? o.x - g.x : o.x);
-  o.y = o.y > TR_R(0.0) ? o.y + g.y : (o.y < TR_R(0.0) ? o.y - g.y : o.y);
-  o.z = o.z > TR_R(0.0) ? o.z + g.z : (o.z < TR_R(0.0) ? o.z - g.z : o.z);
+  o.x = tr_grow_away_from_zero(o.x, g.x);
+  o.y = tr_grow_away_from_zero(o.y, g.y);
+  o.z = tr_grow_away_from_zero(o.z, g.z);
   return p + o;
 }
