@@ -16,11 +16,11 @@
 # instructions before register allocation (off by default on x86), minding register
 # pressure: the same code and values in another order, demo frames 0.97-0.98 of the
 # time, the others level (docs/performance.md); compiling takes 9% longer.
-if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
-  set(TWINRAY_CPU_CODEGEN_FLAGS -fno-math-errno -fno-trapping-math -fschedule-insns
-                                -fsched-pressure)
-elseif(CMAKE_CXX_COMPILER_ID MATCHES "Clang")
+if(CMAKE_CXX_COMPILER_ID MATCHES "GNU|Clang")
   set(TWINRAY_CPU_CODEGEN_FLAGS -fno-math-errno -fno-trapping-math)
+  if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
+    list(APPEND TWINRAY_CPU_CODEGEN_FLAGS -fschedule-insns -fsched-pressure)
+  endif()
 else()
   set(TWINRAY_CPU_CODEGEN_FLAGS)
 endif()
