@@ -9,8 +9,13 @@
 
 /* The hit record of the nearest hit, made once per ray from its (t, primitive). The
  * shading normal, shadow origin and uv are the geometric ones unless a triangle's
- * attributes say otherwise. */
-TR_FN void tr_record_hit(const TrSceneRef* s, TrRay ray, TrNearest nearest, TrHit* hit) {
+ * attributes say otherwise. The record is made in a local and copied out once: made in
+ * *hit_out, g++ merged the primitive's stores into one 32-byte store and then read the
+ * normal back across its end to copy it into ns, a store-forwarding stall on every hit
+ * (docs/performance.md). */
+TR_FN void tr_record_hit(const TrSceneRef* s, TrRay ray, TrNearest nearest, TrHit* hit_out) {
+  TrHit record;
+  TrHit* hit = &record;
   int n_spheres = s->params->n_spheres;
   int n_bounded = n_spheres + s->params->n_triangles;
   int prim = nearest.prim;
@@ -32,6 +37,7 @@ TR_FN void tr_record_hit(const TrSceneRef* s, TrRay ray, TrNearest nearest, TrHi
   hit->v = TR_R(0.0);
   if (tr_use(s, TR_F_ATTRIBUTES) && triangle >= 0)
     tr_triangle_attributes(&s->triangle_attrs[triangle], &s->triangles[triangle], bary, ray.d, hit);
+  *hit_out = record;
 }
 
 /* The end of a closest-hit query once the BVH (or the flat arrays) has been searched:
