@@ -159,9 +159,11 @@ TR_FN_OUTLINE void tr_closest_hit_packet(const TrSceneRef* s, TrRayPacket* pk, T
     nearest.t = pk->t[r];
     nearest.prim = pk->prim[r];
     TR_COUNT_RAY();
-    hit[r] = tr_no_hit();
     found[r] = nearest.prim >= 0;
-    if (found[r]) tr_record_hit(s, pk->ray[r], nearest, &hit[r]);
+    if (found[r])
+      tr_record_hit(s, pk->ray[r], nearest, &hit[r]); /* writes every field */
+    else
+      hit[r] = tr_no_hit();
   }
 }
 
