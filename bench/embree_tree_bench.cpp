@@ -74,7 +74,8 @@ void* create_leaf(RTCThreadLocalAllocator alloc, const RTCBuildPrimitive* prims,
 // rounded outward by the rule twinray's builder applies to its own (Builder::set_box).
 int write_node(const Inner& node, Nodes& out, std::vector<int>& order) {
   using Builder = twinray::bvh::detail::Builder<twinray::bvh::BinaryNode<float>, float>;
-  const int self = out.push();
+  const int self = out.size();
+  out.resize(static_cast<size_t>(self) + 1);
   for (int k = 0; k < kWidth; ++k) {
     if (k >= node.n) {
       out.set_empty_child(self, k);
@@ -95,7 +96,7 @@ int write_node(const Inner& node, Nodes& out, std::vector<int>& order) {
     } else {
       first = write_node(*static_cast<const Inner*>(node.child[k]), out, order);
     }
-    out.set_child(self, k, padded.bounds, first, count);  // after push() moved the nodes
+    out.set_child(self, k, padded.bounds, first, count);  // after resize() moved the nodes
   }
   return self;
 }

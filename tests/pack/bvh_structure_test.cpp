@@ -233,6 +233,42 @@ TEST_CASE("bvh: the build does not depend on the thread count") {
   CHECK(a.bvh_nodes == c.bvh_nodes);
 }
 
+// A large tree's root subtrees are counted and collapsed side by side, each written at
+// the index its count places it (collapse_tree); one thread collapses the whole tree
+// in one recursion. Both must give the same bytes at every width.
+TEST_CASE("bvh: the collapse on several threads gives the one-thread tree") {
+  auto ps = pack_with_bvh(bvh_test::random_scene<float>(60000, 50000, 29u), 1);
+  const auto binary = twinray::bvh::build_binary<float>(ps.spheres, ps.triangles);
+  REQUIRE(binary.nodes.size() >= twinray::bvh::detail::kParallelCollapseNodes);
+  for (int w : twinray::bvh::kWidths) {
+    CAPTURE(w);
+    twinray::set_thread_count(1);
+    const auto one = twinray::bvh::collapse(binary, w);
+    for (int threads : {2, 3}) {
+      CAPTURE(threads);
+      twinray::set_thread_count(threads);
+      const auto several = twinray::bvh::collapse(binary, w);
+      CHECK(several.nodes == one.nodes);
+    }
+    twinray::set_thread_count(0);
+    // Every node reached once from the root, and every primitive through the leaves.
+    std::vector<int> todo{0}, reached(static_cast<size_t>(one.node_count()), 0);
+    long long prims = 0;
+    while (!todo.empty()) {
+      const int node = todo.back();
+      todo.pop_back();
+      ++reached[static_cast<size_t>(node)];
+      const int* link = one.nodes.links(node);
+      for (int k = 0; k < w; ++k) {
+        if (link[w + k] == 0) todo.push_back(link[k]);
+        if (link[w + k] > 0) prims += link[w + k];
+      }
+    }
+    CHECK(std::count(reached.begin(), reached.end(), 1) == one.node_count());
+    CHECK(prims == static_cast<long long>(ps.spheres.size() + ps.triangles.size()));
+  }
+}
+
 TEST_CASE("bvh: the root's passes on every thread give what one pass gives") {
   // More primitives than three blocks of the root's parallel passes, so the blocks'
   // bins and boxes are merged; threads 1 and 3 hand the blocks out differently.
@@ -634,8 +670,8 @@ TEST_CASE("bvh: a greedy tree that would overflow the stack is collapsed at fixe
   using twinray::bvh::detail::Collapse;
   twinray::bvh::Bvh<float> greedy;
   greedy.nodes = twinray::bvh::WideNodes<float>(8);
-  int greedy_stack = 0;
-  twinray::bvh::detail::collapse_node(binary.nodes, 0, Collapse::Greedy, greedy, &greedy_stack);
+  const int greedy_stack =
+      twinray::bvh::detail::collapse_tree(binary.nodes, Collapse::Greedy, greedy.nodes);
   CHECK(greedy_stack > TR_BVH_STACK_SIZE);
   CHECK(twinray::bvh::wide_stats(greedy.nodes).stack_need == greedy_stack);
 

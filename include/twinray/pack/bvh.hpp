@@ -133,13 +133,11 @@ class WideNodes {
   size_t bytes() const { return static_cast<size_t>(nodes_) * node_bytes(width_); }
   const void* data() const { return lines_.data(); }
 
-  void reserve(size_t nodes) { lines_.reserve(lines_for(nodes)); }
-  // Appends a node of zero bytes and returns its index. Pointers from boxes() and
+  // Room for `nodes` nodes of zero bytes, the old ones kept. Pointers from boxes() and
   // links() may move.
-  int push() {
-    ++nodes_;
-    lines_.resize(lines_for(static_cast<size_t>(nodes_)));
-    return nodes_ - 1;
+  void resize(size_t nodes) {
+    lines_.resize(lines_for(nodes));
+    nodes_ = static_cast<int>(nodes);
   }
   void clear() {
     lines_.clear();
@@ -919,21 +917,27 @@ int gather_children(const LargeVector<BinaryNode<T>>& binary, int b, int w, Coll
     }
     return n;
   }
-  // Greedy; the first of equal areas is opened, so the result is deterministic.
+  // Greedy; the first of equal areas is opened, so the result is deterministic. Each
+  // child's area is computed once, as it joins (-1: a leaf, never opened).
+  auto area_of = [&](int b) {
+    const BinaryNode<T>& node = binary[static_cast<size_t>(b)];
+    return node.count > 0 ? -1.0 : half_area(node);
+  };
+  double areas[TR_BVH_MAX_WIDTH];
+  areas[0] = area_of(b);
   while (n < w) {
     int best = -1;
     double best_area = -1;
-    for (int i = 0; i < n; ++i) {
-      const BinaryNode<T>& node = binary[static_cast<size_t>(children[i])];
-      if (node.count > 0) continue;
-      const double area = half_area(node);
-      if (best < 0 || area > best_area) best = i, best_area = area;
-    }
+    for (int i = 0; i < n; ++i)
+      if (areas[i] >= 0 && (best < 0 || areas[i] > best_area)) best = i, best_area = areas[i];
     if (best < 0) break;
     const int first = binary[static_cast<size_t>(children[best])].first;
     std::copy_backward(children + best + 1, children + n, children + n + 1);
+    std::copy_backward(areas + best + 1, areas + n, areas + n + 1);
     children[best] = first;
     children[best + 1] = first + 1;
+    areas[best] = area_of(first);
+    areas[best + 1] = area_of(first + 1);
     ++n;
   }
   return n;
@@ -952,36 +956,93 @@ size_t count_wide_nodes(const LargeVector<BinaryNode<T>>& binary, int b, int w, 
   return count;
 }
 
-// Writes the wide node for binary node b and, depth first, the nodes below it; returns
-// its index, and in *stack the most traversal stack entries a walk from it can hold:
-// (inner children - 1) here, plus the most of any inner child. Recursion depth is
-// bounded by kMaxDepth.
+// Trees of fewer binary nodes are collapsed on the calling thread.
+constexpr size_t kParallelCollapseNodes = 2 * kParallelMinPrims;
+
+// Writes the wide node for binary node b at index `self` of `out` and, depth first, the
+// nodes below it from self + 1 on: each inner child's subtree in turn, so node indices
+// are a preorder (out holds room for them: count_wide_nodes). Returns the index after
+// the last node written, and in *stack the most traversal stack entries a walk from
+// this node can hold: (inner children - 1) here, plus the most of any inner child.
+// Given `inner_counts`, the node counts of the inner children's subtrees in order, each
+// subtree knows where it starts, and they are collapsed side by side (parallel_for):
+// the same bytes as one after the other. Recursion depth is bounded by kMaxDepth.
 template <class T>
-int collapse_node(const LargeVector<BinaryNode<T>>& binary, int b, Collapse how, Bvh<T>& out,
-                  int* stack) {
+int collapse_node(const LargeVector<BinaryNode<T>>& binary, int b, Collapse how, WideNodes<T>& out,
+                  int self, int* stack, const size_t* inner_counts = nullptr) {
   const int w = out.width();
-  const int self = out.nodes.push();
   int children[TR_BVH_MAX_WIDTH];
   const int n = gather_children(binary, b, w, how, children);
-  int inner = 0, below = 0;
-  for (int k = 0; k < w; ++k) {
+  int inner[TR_BVH_MAX_WIDTH], n_inner = 0;
+  for (int k = 0; k < n; ++k)
+    if (binary[static_cast<size_t>(children[k])].count == 0) inner[n_inner++] = k;
+  int start[TR_BVH_MAX_WIDTH] = {}, child_stack[TR_BVH_MAX_WIDTH] = {};
+  int next = self + 1;
+  if (inner_counts) {
+    int largest_first[TR_BVH_MAX_WIDTH];
+    for (int i = 0; i < n_inner; ++i) {
+      start[i] = next;
+      next += static_cast<int>(inner_counts[i]);
+      largest_first[i] = i;
+    }
+    // The largest subtrees first, so that the threads finish together.
+    std::stable_sort(largest_first, largest_first + n_inner,
+                     [&](int x, int y) { return inner_counts[x] > inner_counts[y]; });
+    parallel_for(n_inner, 1, [&](int j) {
+      const int i = largest_first[j];
+      collapse_node(binary, children[inner[i]], how, out, start[i], &child_stack[i]);
+    });
+  } else {
+    for (int i = 0; i < n_inner; ++i) {
+      start[i] = next;
+      next = collapse_node(binary, children[inner[i]], how, out, next, &child_stack[i]);
+    }
+  }
+  int below = 0;
+  for (int k = 0, i = 0; k < w; ++k) {
     if (k >= n) {
-      out.nodes.set_empty_child(self, k);
+      out.set_empty_child(self, k);
       continue;
     }
     const BinaryNode<T>& child = binary[static_cast<size_t>(children[k])];
     int first = child.first;
     if (child.count == 0) {
-      int child_stack = 0;
-      first = collapse_node(binary, children[k], how, out, &child_stack);
-      below = std::max(below, child_stack);
-      ++inner;
+      first = start[i];
+      below = std::max(below, child_stack[i++]);
     }
-    // After the recursion, which grows the nodes and moves them.
-    out.nodes.set_child(self, k, child.bounds, first, child.count);
+    out.set_child(self, k, child.bounds, first, child.count);
   }
-  *stack = std::max(inner - 1, 0) + below;
-  return self;
+  *stack = std::max(n_inner - 1, 0) + below;
+  return next;
+}
+
+// The wide nodes of the binary tree into `out`, resized to their exact count, counted
+// first: growing copied the arrays and touched fresh pages again, and a bound (one wide
+// node per inner binary node) reserved too much (3.1 times the count for mesh_1e6 at
+// width 8), which recycled pages (core/large_array.hpp) would have filled for nothing.
+// A large tree's root subtrees are counted and collapsed side by side, which took the
+// collapse of mesh_1e6 from 18 to 11 ms on 2 threads (docs/performance.md). Returns the
+// stack need (collapse_node).
+template <class T>
+int collapse_tree(const LargeVector<BinaryNode<T>>& binary, Collapse how, WideNodes<T>& out) {
+  const int w = out.width();
+  int stack = 0;
+  if (binary.size() < kParallelCollapseNodes || thread_count() < 2) {
+    out.resize(count_wide_nodes(binary, 0, w, how));
+    collapse_node(binary, 0, how, out, 0, &stack);
+    return stack;
+  }
+  int children[TR_BVH_MAX_WIDTH], inner[TR_BVH_MAX_WIDTH], n_inner = 0;
+  const int n = gather_children(binary, 0, w, how, children);
+  for (int k = 0; k < n; ++k)
+    if (binary[static_cast<size_t>(children[k])].count == 0) inner[n_inner++] = children[k];
+  size_t counts[TR_BVH_MAX_WIDTH];
+  parallel_for(n_inner, 1, [&](int i) { counts[i] = count_wide_nodes(binary, inner[i], w, how); });
+  size_t total = 1;
+  for (int i = 0; i < n_inner; ++i) total += counts[i];
+  out.resize(total);
+  collapse_node(binary, 0, how, out, 0, &stack, counts);
+  return stack;
 }
 
 }  // namespace detail
@@ -995,19 +1056,10 @@ Bvh<T> collapse(const BinaryBvh<T>& binary, int width,
   Bvh<T> out;
   out.nodes = WideNodes<T>(width);
   if (binary.nodes.empty()) return out;
-  // The exact count, counted first: growing copied the arrays and touched fresh pages
-  // again, and a bound (one wide node per inner binary node) reserved too much (3.1
-  // times the count for mesh_1e6 at width 8), which recycled pages
-  // (core/large_array.hpp) would have filled for nothing.
-  out.nodes.reserve(detail::count_wide_nodes(binary.nodes, 0, width, how));
-  int stack = 0;
-  detail::collapse_node(binary.nodes, 0, how, out, &stack);
-  if (stack > TR_BVH_STACK_SIZE) {
+  if (detail::collapse_tree(binary.nodes, how, out.nodes) > TR_BVH_STACK_SIZE) {
     // At fixed levels the need is at most stack_needed(width) (static_assert above).
     out.nodes.clear();
-    out.nodes.reserve(
-        detail::count_wide_nodes(binary.nodes, 0, width, detail::Collapse::FixedLevels));
-    detail::collapse_node(binary.nodes, 0, detail::Collapse::FixedLevels, out, &stack);
+    detail::collapse_tree(binary.nodes, detail::Collapse::FixedLevels, out.nodes);
   }
   return out;
 }
