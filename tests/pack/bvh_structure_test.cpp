@@ -235,7 +235,8 @@ TEST_CASE("bvh: the build does not depend on the thread count") {
 
 // A large tree's root subtrees are counted and collapsed side by side, each written at
 // the index its count places it (collapse_tree); one thread collapses the whole tree
-// in one recursion. Both must give the same bytes at every width.
+// in one recursion. Both must give the same bytes at every width, greedy and at fixed
+// levels.
 TEST_CASE("bvh: the collapse on several threads gives the one-thread tree") {
   auto ps = pack_with_bvh(bvh_test::random_scene<float>(60000, 50000, 29u), 1);
   const auto binary = twinray::bvh::build_binary<float>(ps.spheres, ps.triangles);
@@ -244,11 +245,15 @@ TEST_CASE("bvh: the collapse on several threads gives the one-thread tree") {
     CAPTURE(w);
     twinray::set_thread_count(1);
     const auto one = twinray::bvh::collapse(binary, w);
+    using twinray::bvh::detail::Collapse;
+    const auto fixed_one = twinray::bvh::collapse(binary, w, Collapse::FixedLevels);
     for (int threads : {2, 3}) {
       CAPTURE(threads);
       twinray::set_thread_count(threads);
       const auto several = twinray::bvh::collapse(binary, w);
       CHECK(several.nodes == one.nodes);
+      const auto fixed_several = twinray::bvh::collapse(binary, w, Collapse::FixedLevels);
+      CHECK(fixed_several.nodes == fixed_one.nodes);
     }
     twinray::set_thread_count(0);
     // Every node reached once from the root, and every primitive through the leaves.
