@@ -1,7 +1,8 @@
 # twinray_add_test(NAME src... [LIBS lib...]): a doctest executable linked with the test
 # main (tests/test_main.cpp), twinray::twinray and the CPU backend compiled once for all
-# tests and examples (twinray_generic_cpu, CMakeLists.txt), whose test cases become CTest tests
-# named "NAME: case", each run with TWINRAY_TEST_ENV (the program caches of the build).
+# tests and examples (twinray_generic_cpu, CMakeLists.txt), whose test cases become
+# CTest tests named "NAME: case", each run with TWINRAY_TEST_ENV (the program caches of
+# the build).
 # Sources include test helpers as "support/...", "backend/..." (relative to tests/).
 function(twinray_add_test name)
   cmake_parse_arguments(ARG "" "" "LIBS" ${ARGN})
