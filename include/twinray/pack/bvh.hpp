@@ -943,16 +943,26 @@ int gather_children(const LargeVector<BinaryNode<T>>& binary, int b, int w, Coll
   return n;
 }
 
+// The inner nodes among the n binary nodes children[], in their order, into inner[];
+// returns how many there are.
+template <class T>
+int inner_children(const LargeVector<BinaryNode<T>>& binary, const int* children, int n,
+                   int* inner) {
+  int n_inner = 0;
+  for (int k = 0; k < n; ++k)
+    if (binary[static_cast<size_t>(children[k])].count == 0) inner[n_inner++] = children[k];
+  return n_inner;
+}
+
 // How many wide nodes collapse_node writes for binary node b: the same gathers, no
 // writes.
 template <class T>
 size_t count_wide_nodes(const LargeVector<BinaryNode<T>>& binary, int b, int w, Collapse how) {
-  int children[TR_BVH_MAX_WIDTH];
+  int children[TR_BVH_MAX_WIDTH], inner[TR_BVH_MAX_WIDTH];
   const int n = gather_children(binary, b, w, how, children);
+  const int n_inner = inner_children(binary, children, n, inner);
   size_t count = 1;
-  for (int k = 0; k < n; ++k)
-    if (binary[static_cast<size_t>(children[k])].count == 0)
-      count += count_wide_nodes(binary, children[k], w, how);
+  for (int i = 0; i < n_inner; ++i) count += count_wide_nodes(binary, inner[i], w, how);
   return count;
 }
 
@@ -971,11 +981,9 @@ template <class T>
 int collapse_node(const LargeVector<BinaryNode<T>>& binary, int b, Collapse how, WideNodes<T>& out,
                   int self, int* stack, const size_t* inner_counts = nullptr) {
   const int w = out.width();
-  int children[TR_BVH_MAX_WIDTH];
+  int children[TR_BVH_MAX_WIDTH], inner[TR_BVH_MAX_WIDTH];
   const int n = gather_children(binary, b, w, how, children);
-  int inner[TR_BVH_MAX_WIDTH], n_inner = 0;
-  for (int k = 0; k < n; ++k)
-    if (binary[static_cast<size_t>(children[k])].count == 0) inner[n_inner++] = k;
+  const int n_inner = inner_children(binary, children, n, inner);
   int start[TR_BVH_MAX_WIDTH] = {}, child_stack[TR_BVH_MAX_WIDTH] = {};
   int next = self + 1;
   if (inner_counts) {
@@ -990,12 +998,12 @@ int collapse_node(const LargeVector<BinaryNode<T>>& binary, int b, Collapse how,
                      [&](int x, int y) { return inner_counts[x] > inner_counts[y]; });
     parallel_for(n_inner, 1, [&](int j) {
       const int i = largest_first[j];
-      collapse_node(binary, children[inner[i]], how, out, start[i], &child_stack[i]);
+      collapse_node(binary, inner[i], how, out, start[i], &child_stack[i]);
     });
   } else {
     for (int i = 0; i < n_inner; ++i) {
       start[i] = next;
-      next = collapse_node(binary, children[inner[i]], how, out, next, &child_stack[i]);
+      next = collapse_node(binary, inner[i], how, out, next, &child_stack[i]);
     }
   }
   int below = 0;
@@ -1032,10 +1040,9 @@ int collapse_tree(const LargeVector<BinaryNode<T>>& binary, Collapse how, WideNo
     collapse_node(binary, 0, how, out, 0, &stack);
     return stack;
   }
-  int children[TR_BVH_MAX_WIDTH], inner[TR_BVH_MAX_WIDTH], n_inner = 0;
+  int children[TR_BVH_MAX_WIDTH], inner[TR_BVH_MAX_WIDTH];
   const int n = gather_children(binary, 0, w, how, children);
-  for (int k = 0; k < n; ++k)
-    if (binary[static_cast<size_t>(children[k])].count == 0) inner[n_inner++] = children[k];
+  const int n_inner = inner_children(binary, children, n, inner);
   size_t counts[TR_BVH_MAX_WIDTH];
   parallel_for(n_inner, 1, [&](int i) { counts[i] = count_wide_nodes(binary, inner[i], w, how); });
   size_t total = 1;
