@@ -15,9 +15,10 @@
  * the bounds. If no ray's own test (tr_ray_hits_boxes) could enter a box, the packet's
  * does not either. The rays' own tests then decide, the very operations of
  * tr_ray_hits_boxes, one ray per SIMD lane, and each ray is offered the primitives of
- * exactly the leaves its own test enters (where enough rays enter a leaf, its
- * primitives are tested for every ray, a ray per lane, and kept where it entered). The
- * image is the same bits as the single-ray walk's (tests/pack/packet_test.cpp). */
+ * exactly the leaves its own test enters (a leaf's primitives are tested a ray per
+ * lane for each group of rays that holds one that entered it, and the hits kept where
+ * the ray entered). The image is the same bits as the single-ray walk's
+ * (tests/pack/packet_test.cpp). */
 
 /* The greatest (greatest = 1) or the least (0) of a[0 .. n), n >= 1: eight running
  * extremes side by side (one vector register) instead of one chain of dependent
@@ -189,14 +190,6 @@ TR_FN_INLINE unsigned tr_packet_hits_boxes(TR_GLOBAL const real* boxes, const Tr
   return mask;
 }
 
-/* Whether a leaf that `entered` rays of a packet of n entered is tested a ray per SIMD
- * lane for the whole packet (tr_packet_leaf) rather than ray by ray: once a quarter of
- * the packet entered it (a half, an eighth and always measured alike:
- * docs/performance.md). */
-TR_FN_INLINE int tr_packet_leaf_in_lanes(int entered, int n) {
-  return entered * 4 >= n;
-}
-
 /* Primitive prim, which ray r hits at t if `hit`, offered to the ray, in a loop that
  * runs a ray per SIMD lane: tr_offer_hit's order (closest hit), or the blocked mark
  * (any hit: t in (0, pk->t[r]) sets pk->t[r] to -1), as selects. any_hit is data, not a
@@ -210,16 +203,15 @@ TR_FN_INLINE void tr_packet_offer(TrRayPacket* pk, int r, int hit, real t, int p
   pk->prim[r] = nearer ? prim : prim_r;
 }
 
-/* Triangle prim offered to each ray r of the packet with enter[r] set, a ray per SIMD
- * lane: tr_triangle_hit_at without branches, then tr_packet_offer. Used where enough of
- * the packet entered the leaf; the rays that did not are computed and dropped. */
+/* Triangle prim offered to each ray r of the group of TR_PACKET_GROUP rays from ray g
+ * with enter[r] set, a ray per SIMD lane: tr_triangle_hit_at without branches, then
+ * tr_packet_offer. The group's other rays are computed and dropped. */
 TR_FN_INLINE void tr_packet_triangle_lanes(const TrSceneRef* s, TrRayPacket* pk, int prim,
-                                           const int* enter, int any_hit) {
+                                           const int* enter, int g, int any_hit) {
   TR_GLOBAL const TrTriangle* tri = &s->triangles[prim - s->params->n_spheres];
   vec3 p0 = tr_triangle_p0(tri), p1 = tr_triangle_p1(tri), p2 = tr_triangle_p2(tri);
-  int n = pk->n;
   TR_SIMD_LOOP
-  for (int r = 0; r < n; ++r) {
+  for (int r = g; r < g + TR_PACKET_GROUP; ++r) {
     TrTriangleRay tri_ray = tr_packet_triangle_ray(pk, r);
     vec3 bary;
     real t;
@@ -229,58 +221,41 @@ TR_FN_INLINE void tr_packet_triangle_lanes(const TrSceneRef* s, TrRayPacket* pk,
   }
 }
 
-/* Sphere prim offered to each ray r of the packet with enter[r] set, a ray per SIMD
- * lane, as tr_packet_triangle_lanes does for triangles. */
+/* Sphere prim offered to each ray r of the group from ray g with enter[r] set, a ray
+ * per SIMD lane, as tr_packet_triangle_lanes does for triangles. */
 TR_FN_INLINE void tr_packet_sphere_lanes(const TrSceneRef* s, TrRayPacket* pk, int prim,
-                                         const int* enter, int any_hit) {
+                                         const int* enter, int g, int any_hit) {
   TR_GLOBAL const TrSphere* sp = &s->spheres[prim];
   vec3 center = tr_sphere_center(sp);
   real radius = sp->radius;
-  int n = pk->n;
   TR_SIMD_LOOP
-  for (int r = 0; r < n; ++r) {
+  for (int r = g; r < g + TR_PACKET_GROUP; ++r) {
     real t;
     int hit = enter[r] & tr_sphere_hit_at(center, radius, tr_packet_ray(pk, r), 0, &t);
     tr_packet_offer(pk, r, hit, t, prim, any_hit);
   }
 }
 
-/* A leaf's primitives bvh_prims[first .. first + count) offered to the `entered` rays
- * listed in rays[] (enter[r] set for each of them, clear for the rest of the packet):
- * closest hit or any hit as in tr_packet_offer. A leaf's primitives go a ray per lane
- * where tr_packet_leaf_in_lanes says so (rays[] is then not read), else ray by ray. The
- * lane loops vectorize in g++ and on PoCL alike, since the primitive tests compute in
- * scalars (LLVM does not widen float3). */
+/* A leaf's primitives bvh_prims[first .. first + count) offered to the rays of `in`
+ * (bit r: ray r; enter[r] set for each of them, clear for the packet's other rays):
+ * closest hit or any hit as in tr_packet_offer. Each primitive is tested a ray per
+ * SIMD lane for every group of TR_PACKET_GROUP rays that holds one of them, even where
+ * one ray entered: a test without branches over 16 lanes took less time than the
+ * entering rays' tests one by one, whose branches on a mesh's small triangles go either
+ * way (mesh_1e6 frames 0.93 of the time, docs/performance.md). The lane loops vectorize
+ * in g++ and on PoCL alike, since the primitive tests compute in scalars (LLVM does not
+ * widen float3). */
 TR_FN_INLINE void tr_packet_leaf(const TrSceneRef* s, TrRayPacket* pk, int first, int count,
-                                 const int* enter, const int* rays, int entered, int any_hit) {
-  int lanes = tr_packet_leaf_in_lanes(entered, pk->n);
+                                 tr_mask64 in, const int* enter, int any_hit) {
   for (int i = first; i < first + count; ++i) {
     int prim = tr_bvh_prim(s, i);
-    if (lanes) {
-      if (TR_HAS(TR_F_SPHERES) && prim < s->params->n_spheres)
-        tr_packet_sphere_lanes(s, pk, prim, enter, any_hit);
+    int sphere = TR_HAS(TR_F_SPHERES) && prim < s->params->n_spheres;
+    for (int g = 0; g < pk->n; g += TR_PACKET_GROUP) {
+      if (((unsigned)(in >> g) & ((1u << TR_PACKET_GROUP) - 1u)) == 0u) continue;
+      if (sphere)
+        tr_packet_sphere_lanes(s, pk, prim, enter, g, any_hit);
       else if (TR_HAS(TR_F_TRIANGLES))
-        tr_packet_triangle_lanes(s, pk, prim, enter, any_hit);
-      continue;
-    }
-    /* Ray by ray, the offer keeps its branches: most tests miss, and the selects of
-     * tr_packet_offer made spheres_1e5 frames 7% slower here (docs/performance.md). */
-    for (int q = 0; q < entered; ++q) {
-      int r = rays[q];
-      if (any_hit) {
-        if (pk->t[r] < TR_R(0.0)) continue; /* blocked by an earlier primitive */
-        TrTriangleRay tri_ray = tr_packet_triangle_ray(pk, r);
-        real t = tr_primitive_t(s, prim, pk->ray[r], &tri_ray);
-        if (t > TR_R(0.0) && t < pk->t[r]) pk->t[r] = TR_R(-1.0);
-        continue;
-      }
-      TrNearest nearest;
-      nearest.t = pk->t[r];
-      nearest.prim = pk->prim[r];
-      TrTriangleRay tri_ray = tr_packet_triangle_ray(pk, r);
-      tr_offer_hit(&nearest, tr_primitive_t(s, prim, pk->ray[r], &tri_ray), prim);
-      pk->t[r] = nearest.t;
-      pk->prim[r] = nearest.prim;
+        tr_packet_triangle_lanes(s, pk, prim, enter, g, any_hit);
     }
   }
 }
@@ -289,22 +264,19 @@ TR_FN_INLINE void tr_packet_leaf(const TrSceneRef* s, TrRayPacket* pk, int first
  * hits so far (grown): each ray's own test, tr_ray_enters_box as tr_ray_hits_boxes
  * makes it, a ray per SIMD lane, TR_PACKET_GROUP rays at a time; a group with none of
  * `rays` is skipped (the lanes past n, which tr_packet_begin pads, are never in it).
- * Sets enter[r] for r in [0, n) to whether ray r is one of them, and *count to how many
- * there are. */
+ * Sets enter[r], for each ray r of the groups tested, to whether ray r is one of them
+ * (the groups skipped are left as they were: their rays are not in the result, and
+ * tr_packet_leaf reads only the groups that hold one). */
 TR_FN_INLINE tr_mask64 tr_packet_rays_in_box(TR_GLOBAL const real* boxes, const TrRayPacket* pk,
-                                             int W, int k, tr_mask64 rays, int* enter, int* count) {
+                                             int W, int k, tr_mask64 rays, int* enter) {
   TrBoxPlanes p = tr_box_planes(boxes, pk->rows, W);
   vec3 box_near = TR_VEC3(p.near_x[k], p.near_y[k], p.near_z[k]);
   vec3 box_far = TR_VEC3(p.far_x[k], p.far_y[k], p.far_z[k]);
   real grow = tr_box_grow();
   tr_mask64 in = 0;
-  int entered = 0;
   for (int g = 0; g < pk->n; g += TR_PACKET_GROUP) {
     unsigned group_rays = (unsigned)(rays >> g) & ((1u << TR_PACKET_GROUP) - 1u);
-    if (group_rays == 0u) {
-      for (int j = 0; j < TR_PACKET_GROUP; ++j) enter[g + j] = 0;
-      continue;
-    }
+    if (group_rays == 0u) continue;
     unsigned group_in = 0u;
     TR_SIMD_LOOP
     for (int j = 0; j < TR_PACKET_GROUP; ++j) {
@@ -316,27 +288,11 @@ TR_FN_INLINE tr_mask64 tr_packet_rays_in_box(TR_GLOBAL const real* boxes, const 
       int e = tr_ray_enters_box(box_near, box_far, o, inv_d, inv_d_far, pk->t[r] * grow, &t_entry) &
               (int)((group_rays >> j) & 1u);
       enter[r] = e;
-      entered += e;
       group_in |= (unsigned)e << j;
     }
     in |= (tr_mask64)group_in << g;
   }
-  *count = entered;
   return in;
-}
-
-/* Offers the rays of `in` (bit r: ray r; `entered` of them, enter[] as
- * tr_packet_rays_in_box sets it) the leaf's primitives bvh_prims[first .. first +
- * count), listing the rays in rays[] first where the leaf goes ray by ray
- * (tr_packet_leaf). */
-TR_FN_INLINE void tr_packet_leaf_rays(const TrSceneRef* s, TrRayPacket* pk, int first, int count,
-                                      tr_mask64 in, int entered, const int* enter, int* rays,
-                                      int any_hit) {
-  if (!tr_packet_leaf_in_lanes(entered, pk->n)) {
-    entered = 0;
-    for (; in != 0; in &= in - 1) rays[entered++] = TR_LOWEST_BIT64(in);
-  }
-  tr_packet_leaf(s, pk, first, count, enter, rays, entered, any_hit);
 }
 
 /* The greatest of the packet's nearest distances, grown as the box test grows them. */
@@ -381,7 +337,7 @@ TR_FN_INLINE void tr_packet_walk_masked(const TrSceneRef* s, TrRayPacket* pk, tr
   int stack_node[TR_BVH_STACK_SIZE], stack_lead[TR_BVH_STACK_SIZE];
   real stack_t[TR_BVH_STACK_SIZE];
   tr_mask64 stack_rays[TR_BVH_STACK_SIZE];
-  int enter[TR_PACKET_MAX], rays[TR_PACKET_MAX];
+  int enter[TR_PACKET_MAX];
   real grow = tr_box_grow();
   real tmax_grown = tr_packet_tmax_grown(pk);
   int top = 0;
@@ -416,9 +372,8 @@ TR_FN_INLINE void tr_packet_walk_masked(const TrSceneRef* s, TrRayPacket* pk, tr
         inner |= 1u << k;
         continue;
       }
-      int entered;
-      tr_mask64 in = tr_packet_rays_in_box(boxes, pk, W, k, node_rays, enter, &entered);
-      if (entered == 0) continue;
+      tr_mask64 in = tr_packet_rays_in_box(boxes, pk, W, k, node_rays, enter);
+      if (in == 0) continue;
       if (count[k] == 0) {
         child_rays[k] = in;
         child_lead[k] = TR_LOWEST_BIT64(in);
@@ -426,7 +381,7 @@ TR_FN_INLINE void tr_packet_walk_masked(const TrSceneRef* s, TrRayPacket* pk, tr
         continue;
       }
       leaves_tested = 1;
-      tr_packet_leaf_rays(s, pk, first[k], count[k], in, entered, enter, rays, any_hit);
+      tr_packet_leaf(s, pk, first[k], count[k], in, enter, any_hit);
     }
     if (leaves_tested) {
       tmax_grown = tr_packet_tmax_grown(pk);
