@@ -59,7 +59,7 @@ __kernel void tr_kernel_render(TR_SCENE_ARGS, __global real* out) {
  * thread's loop iteration and the packet's shared walk pays as it does in C++. The
  * range is one row of tr_block_count work-items, in tr_tiled_block's order, which the
  * CPU backend's threads follow too. */
-__kernel void tr_kernel_render_blocks(TR_SCENE_ARGS, __global real* out) {
+__kernel TR_WIDE_VECTORS void tr_kernel_render_blocks(TR_SCENE_ARGS, __global real* out) {
   TrSceneRef s = tr_scene_ref(TR_SCENE_ARG_NAMES);
   TrBlockScratch scratch;
   tr_render_block_at(&s, &scratch, (int)get_global_id(0), out);

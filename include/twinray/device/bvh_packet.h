@@ -210,7 +210,7 @@ TR_FN_INLINE void tr_packet_triangle_lanes(const TrSceneRef* s, TrRayPacket* pk,
                                            const int* enter, int g, int any_hit) {
   TR_GLOBAL const TrTriangle* tri = &s->triangles[prim - s->params->n_spheres];
   vec3 p0 = tr_triangle_p0(tri), p1 = tr_triangle_p1(tri), p2 = tr_triangle_p2(tri);
-  TR_SIMD_LOOP
+  TR_LANE_LOOP
   for (int r = g; r < g + TR_PACKET_GROUP; ++r) {
     TrTriangleRay tri_ray = tr_packet_triangle_ray(pk, r);
     vec3 bary;
@@ -228,7 +228,7 @@ TR_FN_INLINE void tr_packet_sphere_lanes(const TrSceneRef* s, TrRayPacket* pk, i
   TR_GLOBAL const TrSphere* sp = &s->spheres[prim];
   vec3 center = tr_sphere_center(sp);
   real radius = sp->radius;
-  TR_SIMD_LOOP
+  TR_LANE_LOOP
   for (int r = g; r < g + TR_PACKET_GROUP; ++r) {
     real t;
     int hit = enter[r] & tr_sphere_hit_at(center, radius, tr_packet_ray(pk, r), 0, &t);
@@ -278,7 +278,7 @@ TR_FN_INLINE tr_mask64 tr_packet_rays_in_box(TR_GLOBAL const real* boxes, const 
     unsigned group_rays = (unsigned)(rays >> g) & ((1u << TR_PACKET_GROUP) - 1u);
     if (group_rays == 0u) continue;
     unsigned group_in = 0u;
-    TR_SIMD_LOOP
+    TR_LANE_LOOP
     for (int j = 0; j < TR_PACKET_GROUP; ++j) {
       int r = g + j;
       vec3 o = TR_VEC3(pk->ox[r], pk->oy[r], pk->oz[r]);

@@ -20,6 +20,11 @@
  *                       unrolling a short constant-trip loop into scalar code before its
  *                       vectorizer sees it (the 4-wide box loop stayed scalar); nothing
  *                       elsewhere
+ *   TR_LANE_LOOP        before a loop over one 16-ray group of a packet: TR_SIMD_LOOP on
+ *                       the host (g++ makes it one AVX-512 vector); on an AVX-512 CPU
+ *                       under clang (PoCL), 16 lanes and 512-bit registers, where
+ *                       LLVM 15 would pick 8 lanes for `skylake-avx512` (TR_WIDE_VECTORS
+ *                       on every function lets the backend use the 512-bit registers)
  *   TR_LOWEST_BIT(m)    index of the lowest set bit of a nonzero unsigned int (an
  *                       integer builtin on both sides: exact, so parity is not at stake)
  *   tr_mask64, TR_LOWEST_BIT64(m)
@@ -61,14 +66,23 @@ typedef float3 vec3;
  * packet, each with its walk inlined, so the kernel's work-group function stays small.
  * With the one-ray queries inlined into it, a cold first frame took 2.7 s instead of
  * 1.8-2.0; with the packet queries, 12-13% longer (docs/performance.md). */
-#define TR_FN static inline
-#ifdef TR_NO_ALWAYS_INLINE /* Oclgrind's runs: see tests/sanitizers/run_oclgrind.cmake */
-#define TR_FN_INLINE static inline
+#if defined(__clang__) && defined(__AVX512F__)
+/* A packet's 16-ray group loops in 16 lanes, one 512-bit register each, as g++ makes
+ * them: PoCL frames 0.90 (mesh_1e6) to 0.98 of the time with 8 (docs/performance.md). */
+#define TR_WIDE_VECTORS __attribute__((min_vector_width(512)))
+#define TR_LANE_LOOP _Pragma("clang loop vectorize_width(16)")
 #else
-#define TR_FN_INLINE static inline __attribute__((always_inline))
+#define TR_WIDE_VECTORS
+#define TR_LANE_LOOP
 #endif
-#define TR_FN_OUTLINE static __attribute__((noinline))
-#define TR_FN_NOINLINE static __attribute__((noinline))
+#define TR_FN static inline TR_WIDE_VECTORS
+#ifdef TR_NO_ALWAYS_INLINE /* Oclgrind's runs: see tests/sanitizers/run_oclgrind.cmake */
+#define TR_FN_INLINE static inline TR_WIDE_VECTORS
+#else
+#define TR_FN_INLINE static inline __attribute__((always_inline)) TR_WIDE_VECTORS
+#endif
+#define TR_FN_OUTLINE static __attribute__((noinline)) TR_WIDE_VECTORS
+#define TR_FN_NOINLINE static __attribute__((noinline)) TR_WIDE_VECTORS
 #define TR_GLOBAL __global
 #define TR_COUNT_RAY() \
   do {                 \
@@ -101,6 +115,7 @@ typedef ulong tr_mask64;
 #else
 #define TR_SIMD_LOOP
 #endif
+#define TR_LANE_LOOP TR_SIMD_LOOP
 namespace twinray {
 namespace device {
 typedef unsigned long long tr_mask64;
