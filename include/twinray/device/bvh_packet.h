@@ -239,23 +239,53 @@ TR_FN_INLINE void tr_packet_sphere_lanes(const TrSceneRef* s, TrRayPacket* pk, i
 /* A leaf's primitives bvh_prims[first .. first + count) offered to the rays of `in`
  * (bit r: ray r; enter[r] set for each of them, clear for the packet's other rays):
  * closest hit or any hit as in tr_packet_offer. Each primitive is tested a ray per
- * SIMD lane for every group of TR_PACKET_GROUP rays that holds one of them, even where
- * one ray entered: a test without branches over 16 lanes took less time than the
- * entering rays' tests one by one, whose branches on a mesh's small triangles go either
- * way (mesh_1e6 frames 0.93 of the time, docs/performance.md). The lane loops vectorize
- * in g++ and on PoCL alike, since the primitive tests compute in scalars (LLVM does not
- * widen float3). */
+ * SIMD lane for each group of TR_PACKET_GROUP rays that holds at least
+ * TR_LANE_GROUP_MIN_RAYS of them (prelude.h), and for the rays of a group that holds
+ * fewer, one ray at a time. On AVX-512 that is every group that holds one: a test
+ * without branches over 16 lanes, one vector, took less time than even one ray's
+ * scalar test, whose branches on a mesh's small triangles go either way (mesh_1e6
+ * frames 0.93 of the time, docs/performance.md). The lane loops vectorize in g++ and on
+ * PoCL alike, since the primitive tests compute in scalars (LLVM does not widen
+ * float3). */
 TR_FN_INLINE void tr_packet_leaf(const TrSceneRef* s, TrRayPacket* pk, int first, int count,
                                  tr_mask64 in, const int* enter, int any_hit) {
+  /* Bit g set for each group (from ray g) tested in lanes; the other rays of `in` go
+   * one at a time. With a minimum of one ray, every group that holds one. */
+  tr_mask64 lane_groups = 0, lone_rays = 0;
+  for (int g = 0; g < pk->n; g += TR_PACKET_GROUP) {
+    unsigned group = (unsigned)(in >> g) & ((1u << TR_PACKET_GROUP) - 1u);
+    if (TR_LANE_GROUP_MIN_RAYS <= 1 || TR_POPCOUNT(group) >= TR_LANE_GROUP_MIN_RAYS)
+      lane_groups |= (tr_mask64)(group != 0u) << g;
+    else
+      lone_rays |= (tr_mask64)group << g;
+  }
   for (int i = first; i < first + count; ++i) {
     int prim = tr_bvh_prim(s, i);
     int sphere = TR_HAS(TR_F_SPHERES) && prim < s->params->n_spheres;
-    for (int g = 0; g < pk->n; g += TR_PACKET_GROUP) {
-      if (((unsigned)(in >> g) & ((1u << TR_PACKET_GROUP) - 1u)) == 0u) continue;
+    for (tr_mask64 m = lane_groups; m != 0; m &= m - 1) {
+      int g = TR_LOWEST_BIT64(m);
       if (sphere)
         tr_packet_sphere_lanes(s, pk, prim, enter, g, any_hit);
       else if (TR_HAS(TR_F_TRIANGLES))
         tr_packet_triangle_lanes(s, pk, prim, enter, g, any_hit);
+    }
+    /* One ray at a time, the offer keeps its branches: most tests miss, and the selects
+     * of tr_packet_offer made spheres_1e5 frames 7% slower here (docs/performance.md). */
+    for (tr_mask64 m = lone_rays; m != 0; m &= m - 1) {
+      int r = TR_LOWEST_BIT64(m);
+      if (any_hit && pk->t[r] < TR_R(0.0)) continue; /* blocked by an earlier primitive */
+      TrTriangleRay tri_ray = tr_packet_triangle_ray(pk, r);
+      real t = tr_primitive_t(s, prim, pk->ray[r], &tri_ray);
+      if (any_hit) {
+        if (t > TR_R(0.0) && t < pk->t[r]) pk->t[r] = TR_R(-1.0);
+        continue;
+      }
+      TrNearest nearest;
+      nearest.t = pk->t[r];
+      nearest.prim = pk->prim[r];
+      tr_offer_hit(&nearest, t, prim);
+      pk->t[r] = nearest.t;
+      pk->prim[r] = nearest.prim;
     }
   }
 }

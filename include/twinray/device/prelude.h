@@ -30,6 +30,11 @@
  *   tr_mask64, TR_LOWEST_BIT64(m)
  *                       a 64-bit unsigned integer (one bit per ray of a packet) and the
  *                       index of its lowest set bit
+ *   TR_POPCOUNT(m)      the number of set bits of an unsigned int
+ *   TR_LANE_GROUP_MIN_RAYS
+ *                       the fewest rays of a 16-ray group for which a leaf's primitives
+ *                       are tested a ray per SIMD lane (tr_packet_leaf, bvh_packet.h);
+ *                       it depends on how many lanes a vector register holds
  *
  * On the device, TR_FEATURES and TR_DOUBLE arrive as -D build options, and
  * TR_EXACT_FEATURES where the program renders only frames of that very mask (tr_use,
@@ -90,6 +95,7 @@ typedef float3 vec3;
 #define TR_LOWEST_BIT(m) (31 - (int)clz((m) & (0u - (m))))
 typedef ulong tr_mask64;
 #define TR_LOWEST_BIT64(m) (63 - (int)clz((m) & ((tr_mask64)0 - (m))))
+#define TR_POPCOUNT(m) ((int)popcount(m))
 #define TR_SIMD_LOOP
 #ifndef TR_FEATURES
 #error "TR_FEATURES (the Features mask) must be passed as a build option"
@@ -124,6 +130,7 @@ typedef unsigned long long tr_mask64;
 #if defined(__GNUC__) || defined(__clang__)
 #define TR_LOWEST_BIT(m) __builtin_ctz(m)
 #define TR_LOWEST_BIT64(m) __builtin_ctzll(m)
+#define TR_POPCOUNT(m) __builtin_popcount(m)
 #else
 namespace twinray {
 namespace device {
@@ -133,10 +140,16 @@ inline int lowest_bit(Bits m) {
   for (; !(m & 1u); m >>= 1) ++i;
   return i;
 }
+inline int bit_count(unsigned m) {
+  int n = 0;
+  for (; m != 0u; m &= m - 1u) ++n;
+  return n;
+}
 }  // namespace device
 }  // namespace twinray
 #define TR_LOWEST_BIT(m) ::twinray::device::lowest_bit(m)
 #define TR_LOWEST_BIT64(m) ::twinray::device::lowest_bit(m)
+#define TR_POPCOUNT(m) ::twinray::device::bit_count(m)
 #endif
 namespace twinray {
 namespace device {
@@ -151,6 +164,22 @@ inline long long& ray_counter() {
   do {                                                               \
     if (TR_HAS(TR_F_COUNT_RAYS)) ++::twinray::device::ray_counter(); \
   } while (0)
+#endif
+
+/* A leaf's primitives go a ray per lane, 16 at a time, for a group of the packet that
+ * holds at least this many of the rays that entered the leaf, and one ray at a time
+ * otherwise (tr_packet_leaf). Where a register holds 16 floats (AVX-512) the lanes cost
+ * one vector per test and win from one ray on; where it holds 8 (AVX2) they cost two,
+ * and win from 4 rays; with SSE's 4 they pay for full groups only. The scalar tests
+ * leave at their first failed check (docs/performance.md, "Other measured changes"). */
+#ifndef TR_LANE_GROUP_MIN_RAYS
+#if defined(__AVX512F__)
+#define TR_LANE_GROUP_MIN_RAYS 1
+#elif defined(__AVX2__)
+#define TR_LANE_GROUP_MIN_RAYS 4
+#else
+#define TR_LANE_GROUP_MIN_RAYS 16
+#endif
 #endif
 
 #define TR_R(lit) ((real)(lit))
