@@ -16,8 +16,9 @@
  * does not either. The rays' own tests then decide, the very operations of
  * tr_ray_hits_boxes, one ray per SIMD lane, and each ray is offered the primitives of
  * exactly the leaves its own test enters (a leaf's primitives are tested a ray per
- * lane for each group of rays that holds one that entered it, and the hits kept where
- * the ray entered). The image is the same bits as the single-ray walk's
+ * lane for each group of rays that holds enough of those that entered it, the hits
+ * kept where the ray entered, and for the entering rays of other groups one ray at a
+ * time). The image is the same bits as the single-ray walk's
  * (tests/pack/packet_test.cpp). */
 
 /* The greatest (greatest = 1) or the least (0) of a[0 .. n), n >= 1: eight running
