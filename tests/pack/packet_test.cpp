@@ -8,9 +8,9 @@
 //    they were.
 //  - Images: the CPU backend, which traces 8x8 blocks a segment at a time
 //    (tr_render_block), gives the same bits as tr_render_pixel pixel by pixel: BVH
-//    widths 2, 4 and 8, float and double, perspective and orthographic, several jittered
-//    samples, a pixel rectangle whose blocks are cut at its edges, and more lights than
-//    the 32 whose shadow rays are traced in packets.
+//    widths 2, 4 and 8, float and double, perspective and orthographic, several samples
+//    from each sampler, a pixel rectangle whose blocks are cut at its edges, and more
+//    lights than the 32 whose shadow rays are traced in packets.
 //  - Shadow queries: tr_any_hit_packet's answers equal tr_any_hit's, in a scene of a
 //    few spheres and in a dense cloud of half a million.
 #include <doctest/doctest.h>
@@ -282,6 +282,15 @@ void check_images() {
     jittered.sampler = twinray::Sampler::Stratified;
     jittered.seed = 5;
     check({bvh_test::test_camera<T>(40, 30), scene.lights, jittered});
+    // Each sampler: the grid places a sample alike in every pixel, the others do not.
+    auto grid = options;
+    grid.spp = 4;
+    grid.sampler = twinray::Sampler::Grid;
+    check({bvh_test::test_camera<T>(24, 20), scene.lights, grid});
+    auto r2 = grid;
+    r2.spp = 2;
+    r2.sampler = twinray::Sampler::R2;
+    check({bvh_test::test_camera<T>(24, 20), scene.lights, r2});
     auto ortho = bvh_test::test_camera<T>(40, 30);
     ortho.projection = twinray::Projection::Orthographic;
     check({ortho, scene.lights, options});

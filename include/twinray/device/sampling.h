@@ -93,6 +93,12 @@ TR_FN TrSample2 tr_sample_r2(int index, unsigned int pixel_hash) {
   return smp;
 }
 
+/* Whether the sampler places a sample differently in each pixel (the grid does not:
+ * its positions depend on the sample index alone). */
+TR_FN int tr_sampler_per_pixel(int sampler) {
+  return sampler == TR_SAMPLER_STRATIFIED || sampler == TR_SAMPLER_R2;
+}
+
 /* Position of sample `index` of `spp` in pixel (px, py), for any sampler. */
 TR_FN TrSample2 tr_sample_position_seeded(int sampler, int seed, int index, int spp, int px,
                                           int py) {
