@@ -170,13 +170,15 @@ inline long long& ray_counter() {
  * holds at least this many of the rays that entered the leaf, and one ray at a time
  * otherwise (tr_packet_leaf). Where a register holds 16 floats (AVX-512) the lanes cost
  * one vector per test and win from one ray on; where it holds 8 (AVX2) they cost two,
- * and win from 4 rays; with SSE's 4 they pay for full groups only. The scalar tests
- * leave at their first failed check (docs/performance.md, "Other measured changes"). */
+ * and win from half a group (on an AVX2 EPYC of CPU family 23, 4 rays made mesh_1e6
+ * frames 2% slower than 8); with SSE's 4 they pay for full groups only.
+ * The scalar tests leave at their first failed check (docs/performance.md, "Other
+ * measured changes"). */
 #ifndef TR_LANE_GROUP_MIN_RAYS
 #if defined(__AVX512F__)
 #define TR_LANE_GROUP_MIN_RAYS 1
 #elif defined(__AVX2__)
-#define TR_LANE_GROUP_MIN_RAYS 4
+#define TR_LANE_GROUP_MIN_RAYS 8
 #else
 #define TR_LANE_GROUP_MIN_RAYS 16
 #endif
