@@ -56,6 +56,16 @@ TR_FN_INLINE int tr_packet_groups_end(int n) {
   return (n + TR_PACKET_GROUP - 1) / TR_PACKET_GROUP * TR_PACKET_GROUP;
 }
 
+/* Ray r into the packet's arrays, one per component (tr_packet_begin). */
+TR_FN_INLINE void tr_packet_set_ray(TrRayPacket* pk, int r, TrRay ray) {
+  pk->ox[r] = ray.o.x;
+  pk->oy[r] = ray.o.y;
+  pk->oz[r] = ray.o.z;
+  pk->dx[r] = ray.d.x;
+  pk->dy[r] = ray.d.y;
+  pk->dz[r] = ray.d.z;
+}
+
 /* Ray r, read back from the packet's arrays (tr_packet_begin). */
 TR_FN_INLINE TrRay tr_packet_ray(const TrRayPacket* pk, int r) {
   TrRay ray;
@@ -75,15 +85,7 @@ TR_FN_INLINE TrRay tr_packet_ray(const TrRayPacket* pk, int r) {
 TR_FN int tr_packet_begin(TrRayPacket* pk) {
   int n = pk->n;
   if (n <= 0) return 0;
-  for (int r = 0; r < n; ++r) {
-    TrRay ray = pk->ray[r];
-    pk->ox[r] = ray.o.x;
-    pk->oy[r] = ray.o.y;
-    pk->oz[r] = ray.o.z;
-    pk->dx[r] = ray.d.x;
-    pk->dy[r] = ray.d.y;
-    pk->dz[r] = ray.d.z;
-  }
+  for (int r = 0; r < n; ++r) tr_packet_set_ray(pk, r, pk->ray[r]);
   vec3 d0 = TR_VEC3(pk->dx[0], pk->dy[0], pk->dz[0]);
   real grow = tr_box_grow();
   int incoherent = 0;

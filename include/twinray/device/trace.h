@@ -112,13 +112,7 @@ TR_FN_INLINE void tr_block_camera_paths(const TrSceneRef* s, TrBlockScratch* b, 
       TrSample2 smp;
       smp.x = smp_x[x];
       smp.y = smp_y[x];
-      TrRay ray = tr_camera_ray_of(&camera, x0 + x, y0 + y, smp);
-      pk->ox[x] = ray.o.x;
-      pk->oy[x] = ray.o.y;
-      pk->oz[x] = ray.o.z;
-      pk->dx[x] = ray.d.x;
-      pk->dy[x] = ray.d.y;
-      pk->dz[x] = ray.d.z;
+      tr_packet_set_ray(pk, x, tr_camera_ray_of(&camera, x0 + x, y0 + y, smp));
     }
     for (int x = 0; x < w; ++x) b->path[y * w + x] = tr_path_start(s, tr_packet_ray(pk, x));
   }
