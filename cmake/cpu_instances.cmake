@@ -24,7 +24,33 @@ if(CMAKE_CXX_COMPILER_ID MATCHES "GNU|Clang")
 else()
   set(TWINRAY_CPU_CODEGEN_FLAGS)
 endif()
+
+# -march=native also brings g++'s tuning for the build machine. For AMD's first Zen
+# cores (-mtune=znver1) that tuning vectorizes 128 bits at a time, though the core runs
+# AVX2's 256-bit instructions, and models its pipeline for the scheduler: the lane loops
+# of the device code (16 rays per group) took two or four instructions where one would
+# do. With Haswell's tuning instead (256-bit vectors, the same instructions the CPU
+# supports, the same values) the CPU backend's frames took 0.945-0.983 of the time on
+# such a machine, g++ 12's generic tuning 0.96-1.00, its znver3 tuning 0.97-1.00
+# (docs/performance.md). TWINRAY_NATIVE_TUNE is what the CPU backend's translation
+# units compiled with -march=native add: -mtune=haswell where g++ picks znver1, else
+# nothing (set it to choose another, or "" for the compiler's own choice).
+set(twinray_native_tune_default "")
+if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
+  execute_process(COMMAND ${CMAKE_CXX_COMPILER} -march=native -Q --help=target
+                  OUTPUT_VARIABLE twinray_native_target ERROR_QUIET RESULT_VARIABLE twinray_rc)
+  if(twinray_rc EQUAL 0 AND twinray_native_target MATCHES "-mtune=[ \t]+znver1[ \t\r\n]")
+    set(twinray_native_tune_default -mtune=haswell)
+  endif()
+endif()
+set(TWINRAY_NATIVE_TUNE "${twinray_native_tune_default}" CACHE STRING
+    "Tuning flags the CPU backend adds where it is compiled with -march=native")
+
 function(twinray_cpu_instances name)
+  set(native_tune)
+  if("-march=native" IN_LIST ARGN)
+    set(native_tune ${TWINRAY_NATIVE_TUNE})
+  endif()
   set(sources)
   foreach(TWINRAY_INSTANCE_REAL float double)
     set(source ${CMAKE_CURRENT_BINARY_DIR}/${name}_${TWINRAY_INSTANCE_REAL}.cpp)
@@ -34,5 +60,5 @@ function(twinray_cpu_instances name)
   add_library(${name} STATIC ${sources})
   target_link_libraries(${name} PUBLIC twinray::twinray)
   target_compile_definitions(${name} PUBLIC TWINRAY_CPU_BACKEND_EXTERN=1)
-  target_compile_options(${name} PRIVATE ${ARGN} ${TWINRAY_CPU_CODEGEN_FLAGS})
+  target_compile_options(${name} PRIVATE ${ARGN} ${native_tune} ${TWINRAY_CPU_CODEGEN_FLAGS})
 endfunction()
