@@ -27,11 +27,10 @@ endif()
 
 # -march=native also brings g++'s tuning for the build machine. For AMD's first Zen
 # cores (-mtune=znver1) that tuning vectorizes 128 bits at a time, though the core runs
-# AVX2's 256-bit instructions, and models its pipeline for the scheduler: the lane loops
-# of the device code (16 rays per group) took two or four instructions where one would
-# do. With Haswell's tuning instead (256-bit vectors, the same instructions the CPU
-# supports, the same values) the CPU backend's frames took 0.945-0.983 of the time on
-# such a machine, g++ 12's generic tuning 0.96-1.00, its znver3 tuning 0.97-1.00
+# AVX2's 256-bit instructions: each 16-ray group of the device code's lane loops took
+# four instructions where two do. With Haswell's tuning instead (256-bit vectors, the
+# same instructions, the same values) the CPU backend's frames took 0.945-0.983 of the
+# time on such a machine; g++'s generic and znver3 tunings gained less
 # (docs/performance.md). TWINRAY_NATIVE_TUNE is what the CPU backend's translation
 # units compiled with -march=native add: -mtune=haswell where g++ picks znver1, else
 # nothing (set it to choose another, or "" for the compiler's own choice).
