@@ -102,10 +102,10 @@ TR_FN int tr_sampler_per_pixel(int sampler) {
 /* Position of sample `index` of `spp` in pixel (px, py), for any sampler. */
 TR_FN TrSample2 tr_sample_position_seeded(int sampler, int seed, int index, int spp, int px,
                                           int py) {
-  if (sampler == TR_SAMPLER_STRATIFIED)
-    return tr_sample_stratified(index, spp, tr_pixel_hash(px, py, seed));
-  if (sampler == TR_SAMPLER_R2) return tr_sample_r2(index, tr_pixel_hash(px, py, seed));
-  return tr_sample_grid(index, spp);
+  if (!tr_sampler_per_pixel(sampler)) return tr_sample_grid(index, spp);
+  unsigned int pixel_hash = tr_pixel_hash(px, py, seed);
+  if (sampler == TR_SAMPLER_STRATIFIED) return tr_sample_stratified(index, spp, pixel_hash);
+  return tr_sample_r2(index, pixel_hash);
 }
 
 /* The same with seed 0. */
