@@ -343,44 +343,6 @@ TR_FN_INLINE TrBoxRay tr_packet_box_ray(const TrRayPacket* pk, int r) {
   return br;
 }
 
-/* Whether m has at most k bits set. */
-TR_FN_INLINE int tr_mask64_at_most(tr_mask64 m, int k) {
-  for (int j = 0; j < k && m != 0; ++j) m &= m - 1;
-  return m == 0;
-}
-
-/* The packet's rays not blocked yet (any hit: bit r set unless pk->t[r] < 0). */
-TR_FN_INLINE tr_mask64 tr_packet_unblocked(const TrRayPacket* pk) {
-  tr_mask64 unblocked = 0;
-  for (int r = 0; r < pk->n; ++r) unblocked |= (tr_mask64)(pk->t[r] >= TR_R(0.0)) << r;
-  return unblocked;
-}
-
-/* Shadow rays apart: in the masked any-hit walk, a node that at most
- * TR_PACKET_APART_RAYS of the packet's live rays go on to is walked by each of them
- * alone (tr_packet_ray_blocked_below), one box test per node for each ray instead of
- * the packet's interval test and a 16-lane test per child. Shadow rays from a block
- * that sees many small spheres start far apart, and below the top of the tree few of
- * them share a node: spheres_1e6 frames took 0.95-0.98 of the time, spheres_1e5
- * 0.97, meshes and the demo within 1% either way; closest-hit packets, walked so, were
- * slower (docs/performance.md). */
-#ifndef TR_PACKET_APART_RAYS
-#define TR_PACKET_APART_RAYS 4
-#endif
-
-/* Whether ray r of the packet is blocked before pk->t[r] in the subtree of node `root`
- * of the 8-wide tree: the one-ray walk from there, with the box-test and triangle-test
- * views tr_packet_begin made (the values tr_box_ray and tr_triangle_ray give). Out of
- * line: one copy for every packet. */
-TR_FN_NOINLINE int tr_packet_ray_blocked_below(const TrSceneRef* s, const TrRayPacket* pk, int r,
-                                               int root) {
-  TrNearest limit;
-  limit.t = pk->t[r];
-  limit.prim = -1;
-  TrTriangleRay tri_ray = tr_packet_triangle_ray(pk, r);
-  return tr_bvh_walk_below(s, pk->ray[r], tr_packet_box_ray(pk, r), &tri_ray, &limit, 1, 8, root);
-}
-
 /* Walks the W-wide BVH once for the rays of a coherent packet (tr_packet_begin returned
  * 1) in `active` (bit r: ray r), with a mask of rays per stack entry, as Embree's walk
  * of coherent ray streams does (BVHNIntersectorStream::intersectCoherent, after Wald,
@@ -401,9 +363,7 @@ TR_FN_NOINLINE int tr_packet_ray_blocked_below(const TrSceneRef* s, const TrRayP
  * packet's entry bound (closest hit), or in bit order (any hit): tr_inner_order.
  * Bit order is the collapse's left to right; for shadow rays, nearest first took 1.08-1.10
  * times as long on the benchmark scenes, and the best order depends on where the light
- * is (docs/performance.md). On the 8-wide tree, shadow rays go apart where few of them
- * reach a node (TR_PACKET_APART_RAYS); each still meets the leaves its own walk
- * meets, so the answers stay the same. */
+ * is (docs/performance.md). */
 TR_FN_INLINE void tr_packet_walk_masked(const TrSceneRef* s, TrRayPacket* pk, tr_mask64 active,
                                         int any_hit, int W) {
   if (s->params->n_bvh_nodes <= 0 || active == 0) return;
@@ -460,7 +420,9 @@ TR_FN_INLINE void tr_packet_walk_masked(const TrSceneRef* s, TrRayPacket* pk, tr
       tmax_grown = tr_packet_tmax_grown(pk);
       if (any_hit) {
         if (tmax_grown < TR_R(0.0)) break; /* every ray is blocked */
-        live &= tr_packet_unblocked(pk);
+        tr_mask64 unblocked = 0;
+        for (int r = 0; r < pk->n; ++r) unblocked |= (tr_mask64)(pk->t[r] >= TR_R(0.0)) << r;
+        live &= unblocked;
       }
     }
     /* The next node: the first inner child (nearest first for closest hits), the
@@ -484,25 +446,13 @@ TR_FN_INLINE void tr_packet_walk_masked(const TrSceneRef* s, TrRayPacket* pk, tr
       next = next_rays != 0 ? first[order[0]] : -1;
       lead = child_lead[order[0]];
     }
-    for (;;) {
-      while (next < 0 && top > 0) {
-        --top;
-        next_rays = stack_rays[top] & live;
-        if (next_rays != 0 && stack_t[top] <= tmax_grown) {
-          next = stack_node[top];
-          lead = stack_lead[top];
-        }
+    while (next < 0 && top > 0) {
+      --top;
+      next_rays = stack_rays[top] & live;
+      if (next_rays != 0 && stack_t[top] <= tmax_grown) {
+        next = stack_node[top];
+        lead = stack_lead[top];
       }
-      if (!any_hit || W != 8 || next < 0 || !tr_mask64_at_most(next_rays, TR_PACKET_APART_RAYS))
-        break;
-      /* Any hit: a node that few rays reach is walked by each of them alone. */
-      for (tr_mask64 m = next_rays; m != 0; m &= m - 1) {
-        int r = TR_LOWEST_BIT64(m);
-        if (tr_packet_ray_blocked_below(s, pk, r, next)) pk->t[r] = TR_R(-1.0);
-      }
-      live &= tr_packet_unblocked(pk);
-      tmax_grown = tr_packet_tmax_grown(pk);
-      next = -1;
     }
     if (next < 0) break;
     /* Any hit: a blocked lead is replaced by a ray still live (which may not enter

@@ -241,21 +241,19 @@ TR_FN_INLINE int tr_walk_next(unsigned inner, const real* t_entry, TR_GLOBAL con
  * beyond it cannot hold a nearer hit; one entered at exactly that distance can hold a
  * tie, and is kept). Any order would give the same result (tr_offer_hit); nearest first
  * only saves work. Stack: at most W - 1 entries per inner node on the path
- * (TR_BVH_STACK_SIZE). The triangle test's view of the ray is made at the first leaf
- * (many rays miss every box), unless the caller has it (tri_view, else 0).
- * tr_bvh_walk_below walks the subtree of node `root` (0: the whole tree) with the
- * ray's box-test view box_ray (tr_box_ray's values); tr_bvh_walk_wide, the whole tree. */
-TR_FN_INLINE int tr_bvh_walk_below(const TrSceneRef* s, TrRay ray, TrBoxRay box_ray,
-                                   const TrTriangleRay* tri_view, TrNearest* nearest, int any_hit,
-                                   int W, int root) {
+ * (TR_BVH_STACK_SIZE). The triangle test's view of the ray is made at the first leaf:
+ * many rays miss every box. */
+TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nearest, int any_hit,
+                                  int W) {
+  if (s->params->n_bvh_nodes <= 0) return 0;
+  TrBoxRay box_ray = tr_box_ray(ray);
   TrTriangleRay tri_ray;
-  int have_tri_ray = tri_view != 0;
-  if (have_tri_ray) tri_ray = *tri_view;
+  int have_tri_ray = 0;
   real grow = tr_box_grow();
   int stack_node[TR_BVH_STACK_SIZE];
   real stack_t[TR_BVH_STACK_SIZE];
   int top = 0;
-  int index = root;
+  int index = 0;
   for (;;) {
     TR_GLOBAL const real* node = tr_bvh_node(s, index, W);
     TR_GLOBAL const int* first = tr_bvh_node_links(node, W);
@@ -290,12 +288,6 @@ TR_FN_INLINE int tr_bvh_walk_below(const TrSceneRef* s, TrRay ray, TrBoxRay box_
     index = next;
   }
   return any_hit ? 0 : nearest->prim >= 0;
-}
-
-TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nearest, int any_hit,
-                                  int W) {
-  if (s->params->n_bvh_nodes <= 0) return 0;
-  return tr_bvh_walk_below(s, ray, tr_box_ray(ray), 0, nearest, any_hit, W, 0);
 }
 
 /* The walk for the width the scene's BVH was built with. Each width is compiled only
