@@ -370,7 +370,7 @@ TR_FN_INLINE void tr_packet_walk_masked(const TrSceneRef* s, TrRayPacket* pk, tr
   int stack_node[TR_BVH_STACK_SIZE], stack_lead[TR_BVH_STACK_SIZE];
   real stack_t[TR_BVH_STACK_SIZE];
   tr_mask64 stack_rays[TR_BVH_STACK_SIZE];
-  int enter[TR_PACKET_MAX];
+  TR_ALIGNED(TR_LINE_BYTES) int enter[TR_PACKET_MAX];
   real grow = tr_box_grow();
   real tmax_grown = tr_packet_tmax_grown(pk);
   int top = 0;

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <glm/vec3.hpp>
 #include <glm/geometric.hpp>
@@ -53,6 +54,22 @@ static_assert(sizeof(f32::TrTexture) == 16 && sizeof(f64::TrTexture) == 16, "TrT
 static_assert(sizeof(f32::TrLight) == 24 && sizeof(f64::TrLight) == 48, "TrLight layout");
 static_assert(sizeof(f32::TrParams) == 76 + 88 && sizeof(f64::TrParams) == 152 + 88,
               "TrParams layout");
+
+// The packet's per-ray arrays start on cache lines (types.h, TrRayPacket), so that a
+// lane loop's 16-ray group never straddles two.
+template <class Packet, class Scratch>
+constexpr bool lane_arrays_on_lines() {
+  return alignof(Packet) == TR_LINE_BYTES && offsetof(Packet, tri_sx) % TR_LINE_BYTES == 0 &&
+         offsetof(Packet, tri_kx) % TR_LINE_BYTES == 0 &&
+         offsetof(Packet, ox) % TR_LINE_BYTES == 0 && offsetof(Packet, ix) % TR_LINE_BYTES == 0 &&
+         offsetof(Packet, fx) % TR_LINE_BYTES == 0 && offsetof(Packet, t) % TR_LINE_BYTES == 0 &&
+         offsetof(Packet, prim) % TR_LINE_BYTES == 0 &&
+         offsetof(Scratch, specular) % TR_LINE_BYTES == 0 &&
+         offsetof(Scratch, n_dot_h) % TR_LINE_BYTES == 0;
+}
+static_assert(lane_arrays_on_lines<f32::TrRayPacket, f32::TrBlockScratch>() &&
+                  lane_arrays_on_lines<f64::TrRayPacket, f64::TrBlockScratch>(),
+              "TrRayPacket lane arrays");
 
 // Maps the scalar type T to its instantiation of the device code.
 template <class T>

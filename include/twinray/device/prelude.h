@@ -31,6 +31,9 @@
  *                       a 64-bit unsigned integer (one bit per ray of a packet) and the
  *                       index of its lowest set bit
  *   TR_POPCOUNT(m)      the number of set bits of an unsigned int
+ *   TR_ALIGNED(n), TR_LINE_BYTES
+ *                       aligns the struct or declaration it comes before to n bytes, and
+ *                       a cache line's size: the packet's per-ray arrays start on a line
  *   TR_LANE_GROUP_MIN_RAYS
  *                       the fewest rays of a 16-ray group for which a leaf's primitives
  *                       are tested a ray per SIMD lane (tr_packet_leaf, bvh_packet.h);
@@ -183,6 +186,16 @@ inline long long& ray_counter() {
 #define TR_LANE_GROUP_MIN_RAYS 16
 #endif
 #endif
+
+/* Written before what it aligns (a struct's name, or a declaration): C++'s alignas on
+ * the host, the aligned attribute of OpenCL C (1.2, 6.11.1) on the device. Only the
+ * packet's working memory uses it, never a struct that crosses to the device. */
+#ifdef TR_DEVICE
+#define TR_ALIGNED(n) __attribute__((aligned(n)))
+#else
+#define TR_ALIGNED(n) alignas(n)
+#endif
+#define TR_LINE_BYTES 64
 
 #define TR_R(lit) ((real)(lit))
 #define TR_HAS(bit) ((TR_FEATURES & (bit)) != 0u)

@@ -140,7 +140,7 @@ TR_FN void tr_specular_powers(const TrSceneRef* s, const TrHit* hits, const int*
       if (specular[r]) power[r] = tr_pow_unit(n_dot_h[r], s->materials[hits[r].material].shininess);
     return;
   }
-  real base[TR_PACKET_MAX];
+  TR_ALIGNED(TR_LINE_BYTES) real base[TR_PACKET_MAX];
   for (int r = 0; r < n; ++r) {
     power[r] = TR_R(1.0);
     base[r] = n_dot_h[r];

@@ -176,9 +176,11 @@ typedef struct TrNearest {
 #define TR_PACKET_MAX 64
 #define TR_BLOCK_SIDE 8  /* tr_render_block's blocks, TR_BLOCK_SIDE^2 <= TR_PACKET_MAX rays */
 #define TR_TILE_BLOCKS 4 /* tr_tiled_block: tiles of TR_TILE_BLOCKS^2 blocks */
-typedef struct TrRayPacket {
-  int n;
-  TrRay ray[TR_PACKET_MAX];
+typedef struct TR_ALIGNED(TR_LINE_BYTES) TrRayPacket {
+  /* The per-ray arrays come first: each is TR_PACKET_MAX 4- or 8-byte values, a whole
+   * number of cache lines, so with the struct aligned to a line each 16-ray group of a
+   * lane loop starts on one. With `int n` first, every group straddled two lines (and
+   * every 256-bit load two 32-byte halves), an extra load per vector. */
   real tri_sx[TR_PACKET_MAX], tri_sy[TR_PACKET_MAX], tri_sz[TR_PACKET_MAX]; /* TrTriangleRay */
   int tri_kx[TR_PACKET_MAX], tri_ky[TR_PACKET_MAX], tri_kz[TR_PACKET_MAX];
   real ox[TR_PACKET_MAX], oy[TR_PACKET_MAX], oz[TR_PACKET_MAX];
@@ -187,8 +189,10 @@ typedef struct TrRayPacket {
   real fx[TR_PACKET_MAX], fy[TR_PACKET_MAX], fz[TR_PACKET_MAX];
   real t[TR_PACKET_MAX];
   int prim[TR_PACKET_MAX];
+  TrRay ray[TR_PACKET_MAX];
   vec3 o_lo, o_hi, i_lo, i_hi, f_lo, f_hi;
   TrSlabRows rows; /* shared: every ray's direction has the same signs */
+  int n;
 } TrRayPacket;
 
 /* A point light as shading sees it from a hit (shading.h): where it is, the
@@ -223,6 +227,11 @@ typedef struct TrPath {
  * hits' shadow rays toward it went into the packet (lane) and are blocked. */
 typedef struct TrBlockScratch {
   TrRayPacket packet;
+  /* One light's specular terms over the hits: which hits have one, the base n.h of
+   * each and its power (tr_specular_powers, whose loops run a hit per SIMD lane: line
+   * aligned, as the packet's arrays are). */
+  TR_ALIGNED(TR_LINE_BYTES) int specular[TR_PACKET_MAX];
+  real n_dot_h[TR_PACKET_MAX], power[TR_PACKET_MAX];
   TrPath path[TR_PACKET_MAX];
   TrHit hit[TR_PACKET_MAX];
   TrSurface surface[TR_PACKET_MAX];
@@ -230,10 +239,6 @@ typedef struct TrBlockScratch {
   TrLightView light[TR_PACKET_MAX];
   int found[TR_PACKET_MAX], slot[TR_PACKET_MAX], lane[TR_PACKET_MAX];
   int lane_blocked[TR_PACKET_MAX], blocked[TR_PACKET_MAX];
-  /* One light's specular terms over the hits: which hits have one, the base n.h of
-   * each and its power (tr_specular_powers). */
-  int specular[TR_PACKET_MAX];
-  real n_dot_h[TR_PACKET_MAX], power[TR_PACKET_MAX];
 } TrBlockScratch;
 
 typedef struct TrSample2 {
