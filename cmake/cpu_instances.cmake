@@ -45,11 +45,18 @@ endif()
 set(TWINRAY_NATIVE_TUNE "${twinray_native_tune_default}" CACHE STRING
     "Tuning flags the CPU backend adds where it is compiled with -march=native")
 
-function(twinray_cpu_instances name)
+# twinray_cpu_backend_options(TARGET [compile options...]): the options the CPU
+# backend's translation units compile with, given the code's own (-march=native
+# brings TWINRAY_NATIVE_TUNE), set on TARGET; also for bench/'s twinray_ab_side.
+function(twinray_cpu_backend_options target)
   set(native_tune)
   if("-march=native" IN_LIST ARGN)
     set(native_tune ${TWINRAY_NATIVE_TUNE})
   endif()
+  target_compile_options(${target} PRIVATE ${ARGN} ${native_tune} ${TWINRAY_CPU_CODEGEN_FLAGS})
+endfunction()
+
+function(twinray_cpu_instances name)
   set(sources)
   foreach(TWINRAY_INSTANCE_REAL float double)
     set(source ${CMAKE_CURRENT_BINARY_DIR}/${name}_${TWINRAY_INSTANCE_REAL}.cpp)
@@ -59,5 +66,5 @@ function(twinray_cpu_instances name)
   add_library(${name} STATIC ${sources})
   target_link_libraries(${name} PUBLIC twinray::twinray)
   target_compile_definitions(${name} PUBLIC TWINRAY_CPU_BACKEND_EXTERN=1)
-  target_compile_options(${name} PRIVATE ${ARGN} ${native_tune} ${TWINRAY_CPU_CODEGEN_FLAGS})
+  twinray_cpu_backend_options(${name} ${ARGN})
 endfunction()
