@@ -27,8 +27,11 @@
 #include <vector>
 
 #include "bench_runner.hpp"
+#include "bench_stats.hpp"
 
 namespace {
+using twinray_bench::image_hash;
+using twinray_bench::quantile;
 
 using Nodes = twinray::bvh::WideNodes<float>;
 constexpr int kWidth = 8;
@@ -166,20 +169,6 @@ bool use_embree_tree(twinray::PackedScene<float>& ps, RTCDevice device, int bloc
   }
   rtcReleaseBVH(bvh);
   return fits;
-}
-
-uint64_t image_hash(const twinray::Image<float>& image) {
-  uint64_t h = 1469598103934665603ull;  // FNV-1a over the pixels' bytes
-  const auto* bytes = reinterpret_cast<const unsigned char*>(image.rgb.data());
-  for (size_t i = 0; i < image.rgb.size() * sizeof(float); ++i)
-    h = (h ^ bytes[i]) * 1099511628211ull;
-  return h;
-}
-
-// The q-quantile of v (nearest rank): 0.5 the median, 0.25 and 0.75 the quartiles.
-double quantile(std::vector<double> v, double q) {
-  std::sort(v.begin(), v.end());
-  return v[static_cast<size_t>(q * static_cast<double>(v.size() - 1) + 0.5)];
 }
 
 const char* usage =

@@ -14,11 +14,13 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <string>
 #include <vector>
 
+#include "../bench_stats.hpp"
+
 namespace {
+using twinray_bench::quantile;
 using MakeFn = void* (*)(const char*, int, int, int, const char*, char*, int);
 using FrameFn = double (*)(void*, std::uint64_t*);
 using FreeFn = void (*)(void*);
@@ -43,11 +45,6 @@ bool load(const char* path, Module* m) {
     return false;
   }
   return true;
-}
-
-double quantile(std::vector<double> v, double q) {
-  std::sort(v.begin(), v.end());
-  return v[static_cast<size_t>(q * static_cast<double>(v.size() - 1) + 0.5)];
 }
 
 int usage() {

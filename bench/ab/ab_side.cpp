@@ -9,7 +9,8 @@
 #include <memory>
 #include <string>
 
-#include "bench/bench_scenes.hpp"
+#include "bench_scenes.hpp"
+#include "../bench_stats.hpp"
 
 namespace {
 struct Side {
@@ -53,11 +54,7 @@ AB_EXPORT double twinray_ab_frame(void* handle, std::uint64_t* hash) {
   side->backend->render_into(request, side->image, nullptr);
   const double ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  std::uint64_t h = 14695981039346656037ull;
-  const auto* bytes = reinterpret_cast<const unsigned char*>(side->image.rgb.data());
-  for (size_t i = 0; i < side->image.rgb.size() * sizeof(float); ++i)
-    h = (h ^ bytes[i]) * 1099511628211ull;
-  *hash = h;
+  *hash = twinray_bench::image_hash(side->image);
   return ms;
 }
 
