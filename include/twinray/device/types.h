@@ -177,10 +177,15 @@ typedef struct TrNearest {
 #define TR_BLOCK_SIDE 8  /* tr_render_block's blocks, TR_BLOCK_SIDE^2 <= TR_PACKET_MAX rays */
 #define TR_TILE_BLOCKS 4 /* tr_tiled_block: tiles of TR_TILE_BLOCKS^2 blocks */
 typedef struct TR_ALIGNED(TR_LINE_BYTES) TrRayPacket {
-  /* The per-ray arrays come first: each is TR_PACKET_MAX 4- or 8-byte values, a whole
-   * number of cache lines, so with the struct aligned to a line each 16-ray group of a
-   * lane loop starts on one. With `int n` first, every group straddled two lines (and
-   * every 256-bit load two 32-byte halves), an extra load per vector. */
+  /* The ray count first, alone on its cache line: placed after the arrays, where a
+   * store to an element could reach it as far as a compiler can tell, it made PoCL's
+   * demo frames 1.10-1.16 times as long (docs/performance.md). */
+  int n;
+  int n_line[TR_LINE_BYTES / 4 - 1]; /* unused: the arrays start on the next line */
+  /* The per-ray arrays: each is TR_PACKET_MAX 4- or 8-byte values, a whole number of
+   * cache lines, so with the struct aligned to a line each 16-ray group of a lane loop
+   * starts on one. Off the lines, every group straddled two (and every 256-bit load
+   * two 32-byte halves), an extra load per vector. */
   real tri_sx[TR_PACKET_MAX], tri_sy[TR_PACKET_MAX], tri_sz[TR_PACKET_MAX]; /* TrTriangleRay */
   int tri_kx[TR_PACKET_MAX], tri_ky[TR_PACKET_MAX], tri_kz[TR_PACKET_MAX];
   real ox[TR_PACKET_MAX], oy[TR_PACKET_MAX], oz[TR_PACKET_MAX];
@@ -192,7 +197,6 @@ typedef struct TR_ALIGNED(TR_LINE_BYTES) TrRayPacket {
   TrRay ray[TR_PACKET_MAX];
   vec3 o_lo, o_hi, i_lo, i_hi, f_lo, f_hi;
   TrSlabRows rows; /* shared: every ray's direction has the same signs */
-  int n;
 } TrRayPacket;
 
 /* A point light as shading sees it from a hit (shading.h): where it is, the
