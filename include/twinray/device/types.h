@@ -179,7 +179,7 @@ typedef struct TrNearest {
 typedef struct TR_ALIGNED(TR_LINE_BYTES) TrRayPacket {
   /* The ray count first, alone on its cache line: placed after the arrays, where a
    * store to an element could reach it as far as a compiler can tell, it made PoCL's
-   * demo frames 1.10-1.16 times as long (docs/performance.md). */
+   * demo frames 1.07-1.16 times as long (docs/performance.md). */
   int n;
   int n_line[TR_LINE_BYTES / 4 - 1]; /* unused: the arrays start on the next line */
   /* The per-ray arrays: each is TR_PACKET_MAX 4- or 8-byte values, a whole number of
