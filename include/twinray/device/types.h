@@ -181,7 +181,7 @@ typedef struct TR_ALIGNED(TR_LINE_BYTES) TrRayPacket {
    * store to an element could reach it as far as a compiler can tell, it made PoCL's
    * demo frames 1.07-1.16 times as long (docs/performance.md). */
   int n;
-  int n_line[TR_LINE_BYTES / 4 - 1]; /* unused: the arrays start on the next line */
+  int n_line[TR_LINE_BYTES / sizeof(int) - 1]; /* unused: the arrays start on the next line */
   /* The per-ray arrays: each is TR_PACKET_MAX 4- or 8-byte values, a whole number of
    * cache lines, so with the struct aligned to a line each 16-ray group of a lane loop
    * starts on one. Off the lines, every group straddled two (and every 256-bit load
