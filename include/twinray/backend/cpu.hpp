@@ -103,7 +103,8 @@ class CpuBackend final : public RenderBackend<T> {
     image.resize(p.rect_w, p.rect_h);
     long long refined = 0;
     with_features(compiled, [&](auto features) {
-      using K = typename device::Code<T>::template Kernel<decltype(features)::value>;
+      // The device code as the CPU backend compiles it (device/code.hpp, CpuKernel).
+      using K = typename device::Code<T>::template CpuKernel<decltype(features)::value>;
       if (p.adaptive_spp > 0)
         refined = render_adaptive<K>(frame, image);
       else
@@ -134,7 +135,7 @@ class CpuBackend final : public RenderBackend<T> {
     if (output == Output::Shaded) {
       // Blocks of pixels traced a segment at a time (device/trace.h tr_render_block);
       // the same values as pixel by pixel.
-      using Scratch = typename device::Code<T>::BlockScratch;
+      using Scratch = typename device::Code<T>::CpuBlockScratch;
       static_assert(TR_BLOCK_SIDE * TR_BLOCK_SIDE <= TR_PACKET_MAX, "a block is one packet");
       // The block kernel's steps (tr_render_block_at), a tile of blocks at a time per
       // thread.
@@ -159,7 +160,7 @@ class CpuBackend final : public RenderBackend<T> {
     const auto& p = frame.params;
     std::vector<T> stats(static_cast<size_t>(p.stats_w) * p.stats_h * TR_ADAPTIVE_STATS);
     for_each_pixel(p.stats_x, p.stats_y, p.stats_w, p.stats_h, [&](int x, int y) {
-      glm::vec<3, T> range;
+      typename device::Code<T>::CpuVec3 range;
       auto sum = K::tr_adaptive_first(&scene, x, y, &range);
       K::tr_adaptive_store_stats(&p, stats.data(), x, y, sum, range);
       const int rx = x - p.rect_x, ry = y - p.rect_y;

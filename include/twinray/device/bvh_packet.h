@@ -114,9 +114,9 @@ TR_FN int tr_packet_begin(TrRayPacket* pk) {
     pk->fx[r] = fx;
     pk->fy[r] = fy;
     pk->fz[r] = fz;
+    real afx = fabs(fx), afy = fabs(fy), afz = fabs(fz);
     int coherent = (dx * d0.x > TR_R(0.0)) & (dy * d0.y > TR_R(0.0)) & (dz * d0.z > TR_R(0.0)) &
-                   (fabs(fx) < TR_R(INFINITY)) & (fabs(fy) < TR_R(INFINITY)) &
-                   (fabs(fz) < TR_R(INFINITY));
+                   (afx < TR_R(INFINITY)) & (afy < TR_R(INFINITY)) & (afz < TR_R(INFINITY));
     incoherent |= !coherent;
   }
   /* The lanes past n up to a multiple of TR_PACKET_GROUP, which the group loops of

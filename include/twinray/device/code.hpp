@@ -31,6 +31,41 @@ struct Kernel {
 };
 }  // namespace f32
 
+#if defined(__clang__)
+// The CPU backend's float code under clang: vec3 a native 3-lane vector
+// (ext_vector_type, 16 bytes), as float3 is in the OpenCL C that PoCL compiles with the
+// same LLVM. The same operations lane by lane, so the same values; the CPU backend's
+// frames take 0.90-0.98 of g++ 12's time with clang++ 15, where over glm's struct
+// clang's took 1.08-1.16 times g++'s (docs/performance.md, "The compiler"). The buffer
+// structs are f32's own (no vec3 in them), so a packed scene serves both; only the
+// working structs and the functions are compiled again. f32 keeps glm's vec3 for host
+// code that mixes the device math with glm (the tests). double stays glm's everywhere:
+// a 3-lane double vector is passed in AVX registers, a calling convention that would
+// differ between translation units built with and without AVX.
+namespace f32_vec {
+typedef float real;
+typedef float vec3 __attribute__((ext_vector_type(3)));
+using f32::TrBoxPlanes;
+using f32::TrLight;
+using f32::TrMaterial;
+using f32::TrParams;
+using f32::TrPlane;
+using f32::TrSceneRef;
+using f32::TrSlabRows;
+using f32::TrSphere;
+using f32::TrTexture;
+using f32::TrTriangle;
+using f32::TrTriangleAttr;
+#define TR_WORKING_TYPES_ONLY
+#include <twinray/device/types.h>
+#undef TR_WORKING_TYPES_ONLY
+template <unsigned TR_FEATURES>
+struct Kernel {
+#include <twinray/device/functions.h>
+};
+}  // namespace f32_vec
+#endif
+
 namespace f64 {
 typedef double real;
 typedef glm::vec<3, double> vec3;
@@ -70,6 +105,10 @@ constexpr bool lane_arrays_on_lines() {
 static_assert(lane_arrays_on_lines<f32::TrRayPacket, f32::TrBlockScratch>() &&
                   lane_arrays_on_lines<f64::TrRayPacket, f64::TrBlockScratch>(),
               "TrRayPacket lane arrays");
+#if defined(__clang__)
+static_assert(lane_arrays_on_lines<f32_vec::TrRayPacket, f32_vec::TrBlockScratch>(),
+              "TrRayPacket lane arrays");
+#endif
 
 // Maps the scalar type T to its instantiation of the device code.
 template <class T>
@@ -93,6 +132,18 @@ struct Code<float> {
   using Nearest = f32::TrNearest;
   template <unsigned Features>
   using Kernel = f32::Kernel<Features>;
+  // What the CPU backend renders with: f32_vec's code under clang, else f32's.
+#if defined(__clang__)
+  template <unsigned Features>
+  using CpuKernel = f32_vec::Kernel<Features>;
+  using CpuBlockScratch = f32_vec::TrBlockScratch;
+  using CpuVec3 = f32_vec::vec3;
+#else
+  template <unsigned Features>
+  using CpuKernel = f32::Kernel<Features>;
+  using CpuBlockScratch = f32::TrBlockScratch;
+  using CpuVec3 = f32::vec3;
+#endif
   static constexpr const char* name = "float";
 };
 
@@ -114,6 +165,10 @@ struct Code<double> {
   using Nearest = f64::TrNearest;
   template <unsigned Features>
   using Kernel = f64::Kernel<Features>;
+  template <unsigned Features>
+  using CpuKernel = f64::Kernel<Features>;
+  using CpuBlockScratch = f64::TrBlockScratch;
+  using CpuVec3 = f64::vec3;
   static constexpr const char* name = "double";
 };
 

@@ -53,6 +53,18 @@
 #ifndef TWINRAY_DEVICE_PRELUDE_H
 #define TWINRAY_DEVICE_PRELUDE_H
 
+/* Under clang on an AVX-512 CPU (PoCL's kernels, and host code that clang compiles): a
+ * packet's 16-ray group loops in 16 lanes, one 512-bit register each, as g++ makes
+ * them. LLVM 15 would pick 8 lanes for `skylake-avx512`: PoCL frames 0.90 (mesh_1e6) to
+ * 0.98 of the time with 8 (docs/performance.md). */
+#if defined(__clang__) && defined(__AVX512F__)
+#define TR_CLANG_AVX512 1
+#define TR_WIDE_VECTORS __attribute__((min_vector_width(512)))
+#define TR_LANE_LOOP _Pragma("clang loop vectorize_width(16)")
+#else
+#define TR_WIDE_VECTORS
+#endif
+
 #if defined(__OPENCL_VERSION__) || defined(__OPENCL_C_VERSION__)
 /* ---- OpenCL C 1.2 ---- */
 #define TR_DEVICE 1
@@ -74,13 +86,7 @@ typedef float3 vec3;
  * packet, each with its walk inlined, so the kernel's work-group function stays small.
  * With the one-ray queries inlined into it, a cold first frame took 2.7 s instead of
  * 1.8-2.0; with the packet queries, 12-13% longer (docs/performance.md). */
-#if defined(__clang__) && defined(__AVX512F__)
-/* A packet's 16-ray group loops in 16 lanes, one 512-bit register each, as g++ makes
- * them: PoCL frames 0.90 (mesh_1e6) to 0.98 of the time with 8 (docs/performance.md). */
-#define TR_WIDE_VECTORS __attribute__((min_vector_width(512)))
-#define TR_LANE_LOOP _Pragma("clang loop vectorize_width(16)")
-#else
-#define TR_WIDE_VECTORS
+#ifndef TR_CLANG_AVX512
 #define TR_LANE_LOOP
 #endif
 #define TR_FN static inline TR_WIDE_VECTORS
@@ -108,23 +114,29 @@ typedef ulong tr_mask64;
 /* ---- host C++17 (compile with -ffp-contract=off; the CMake targets carry it) ---- */
 #include <cmath>
 #include <glm/vec3.hpp>
-#define TR_FN static inline
-#define TR_FN_OUTLINE static inline
+#define TR_FN static inline TR_WIDE_VECTORS
+#define TR_FN_OUTLINE static inline TR_WIDE_VECTORS
 #if defined(__GNUC__) || defined(__clang__)
-#define TR_FN_INLINE static inline __attribute__((always_inline))
-#define TR_FN_NOINLINE static __attribute__((noinline))
+#define TR_FN_INLINE static inline __attribute__((always_inline)) TR_WIDE_VECTORS
+#define TR_FN_NOINLINE static __attribute__((noinline)) TR_WIDE_VECTORS
 #else
 #define TR_FN_INLINE static inline
 #define TR_FN_NOINLINE static
 #endif
 #define TR_GLOBAL
+#if defined(__clang__) /* vec3 is an ext_vector_type there (code.hpp): braces */
+#define TR_VEC3(x, y, z) (vec3{(x), (y), (z)})
+#else
 #define TR_VEC3(x, y, z) vec3((x), (y), (z))
+#endif
 #if defined(__GNUC__) && !defined(__clang__)
 #define TR_SIMD_LOOP _Pragma("GCC unroll 1")
 #else
 #define TR_SIMD_LOOP
 #endif
+#ifndef TR_CLANG_AVX512
 #define TR_LANE_LOOP TR_SIMD_LOOP
+#endif
 namespace twinray {
 namespace device {
 typedef unsigned long long tr_mask64;

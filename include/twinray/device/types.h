@@ -7,9 +7,11 @@
  * and the tests check them against the kernel's own sizeof.
  *
  * No include guard: the host includes this file once per precision, in namespaces
- * twinray::device::f32 and ::f64. */
+ * twinray::device::f32 and ::f64, and under clang the working structs once more, in
+ * ::f32_vec (code.hpp). */
 
 /* ---- buffer structs ---- */
+#ifndef TR_WORKING_TYPES_ONLY /* code.hpp's second float instantiation shares these */
 
 typedef struct TrSphere {
   real cx, cy, cz, radius;
@@ -90,13 +92,6 @@ typedef struct TrBoxPlanes {
   TR_GLOBAL const real *near_x, *near_y, *near_z, *far_x, *far_y, *far_z;
 } TrBoxPlanes;
 
-/* A ray as the box test wants it: 1/d, 1/d padded for the far planes (bvh_traverse.h),
- * and the rows of the boxes it reads. */
-typedef struct TrBoxRay {
-  vec3 o, inv_d, inv_d_far;
-  TrSlabRows rows;
-} TrBoxRay;
-
 /* Per-frame data: camera, image, counts and run-time switches. */
 typedef struct TrParams {
   real origin_x, origin_y, origin_z;                /* camera position */
@@ -136,6 +131,16 @@ typedef struct TrSceneRef {
   TR_GLOBAL const TrTexture* textures;
   TR_GLOBAL const real* texels;
 } TrSceneRef;
+#endif /* TR_WORKING_TYPES_ONLY */
+
+/* ---- working structs: the only ones that hold vec3 ---- */
+
+/* A ray as the box test wants it: 1/d, 1/d padded for the far planes (bvh_traverse.h),
+ * and the rows of the boxes it reads. */
+typedef struct TrBoxRay {
+  vec3 o, inv_d, inv_d_far;
+  TrSlabRows rows;
+} TrBoxRay;
 
 typedef struct TrRay {
   vec3 o, d; /* d has unit length */
