@@ -167,7 +167,7 @@ report::ReportScene<T> make_scene(const std::string& name, int size) {
 class Reporter {
  public:
   Reporter(const ReportArgs& args, const Plan& plan, Progress& progress)
-      : args_(args), plan_(plan), progress_(progress) {
+      : plan_(plan), progress_(progress) {
     std::stringstream ss(args.backends);
     for (std::string b; std::getline(ss, b, ',');) backends_.push_back(parse_backend(b));
   }
@@ -338,7 +338,6 @@ class Reporter {
     }
   }
 
-  const ReportArgs& args_;
   const Plan& plan_;
   Progress& progress_;
   std::vector<Backend> backends_;

@@ -324,7 +324,10 @@ TEST_CASE("a render's program holds only the kernels it launches") {
        {"tr_kernel_adaptive_first", "tr_kernel_adaptive_mark", "tr_kernel_adaptive_refine",
         "tr_kernel_aov", "tr_kernel_layout_sizes", "tr_kernel_render", "tr_kernel_render_blocks",
         "tr_kernel_sample_positions"}}};
-  for (const auto& [entry_points, expected] : cases) {
+  for (const auto& entry_case : cases) {
+    // Named copies, not a structured binding: C++17 lets no lambda (CAPTURE's) capture one.
+    const int entry_points = entry_case.first;
+    const std::vector<std::string>& expected = entry_case.second;
     CAPTURE(entry_points);
     bool built = false;
     double ms = 0;
