@@ -1,6 +1,8 @@
 # Drives the consumer project (tests/consumer/project) the way a user adopts twinray.
 #   cmake -DMODE=installed|subdirectory -DSOURCE_DIR=<twinray> -DWORK_DIR=<scratch>
-#         -DGENERATOR=<gen> [-DCXX=<compiler>] [-DHOST_PROCESSOR=x86_64] -P run_consumer.cmake
+#         -DGENERATOR=<gen> [-DCXX=<compiler>] [-DHOST_PROCESSOR=x86_64]
+#         [-DFLAGS=<subdirectory mode: CMAKE_CXX_FLAGS, Release>] [-DSCENES=a.json;b.json]
+#         -P run_consumer.cmake
 # installed:    copy the source tree, configure, `cmake --install` it into a prefix (the
 #               headers, the CMake package and bin/twinray, which must render alone),
 #               DELETE the copy and its build folder, check the installed files name
@@ -37,8 +39,17 @@ file(REMOVE_RECURSE ${WORK_DIR})
 file(MAKE_DIRECTORY ${WORK_DIR})
 set(env ${CMAKE_COMMAND} -E env TWINRAY_CACHE_DIR=${WORK_DIR}/cache/twinray
         POCL_CACHE_DIR=${WORK_DIR}/cache/pocl)
-# The demo scene, kept outside any tree that gets deleted.
-file(COPY ${SOURCE_DIR}/examples/scenes/demo.json DESTINATION ${WORK_DIR})
+# The scenes (SCENES, names in examples/scenes; default the demo), kept outside any tree
+# that gets deleted.
+if(NOT SCENES)
+  set(SCENES demo.json)
+endif()
+foreach(scene ${SCENES})
+  file(COPY ${SOURCE_DIR}/examples/scenes/${scene} DESTINATION ${WORK_DIR})
+endforeach()
+if("torus.json" IN_LIST SCENES)
+  file(COPY ${SOURCE_DIR}/examples/scenes/torus.obj DESTINATION ${WORK_DIR})
+endif()
 
 if(MODE STREQUAL "installed")
   set(copy ${WORK_DIR}/src)
@@ -121,20 +132,27 @@ if(MODE STREQUAL "installed")
        ${compiler_args} -DCMAKE_BUILD_TYPE=Release "-DCMAKE_CXX_FLAGS=${flags}"
        -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF)
 elseif(MODE STREQUAL "subdirectory")
+  set(flag_args "")
+  if(FLAGS)
+    set(flag_args -DCMAKE_BUILD_TYPE=Release "-DCMAKE_CXX_FLAGS=${FLAGS}")
+  endif()
   step("configure consumer (add_subdirectory)" 0 ${CMAKE_COMMAND}
        -S ${CMAKE_CURRENT_LIST_DIR}/project -B ${WORK_DIR}/consumer -G ${GENERATOR}
-       ${compiler_args} -DTWINRAY_SOURCE_DIR=${SOURCE_DIR})
+       ${compiler_args} ${flag_args} -DTWINRAY_SOURCE_DIR=${SOURCE_DIR})
 else()
   message(FATAL_ERROR "MODE must be installed or subdirectory")
 endif()
 
 step("build consumer" 0 ${CMAKE_COMMAND} --build ${WORK_DIR}/consumer)
-step("run consumer" 0 ${env} ${WORK_DIR}/consumer/consumer ${WORK_DIR}/demo.json
-     ${WORK_DIR}/out.png)
-message(STATUS "${step_output}")
-string(FIND "${step_output}" "agree bit for bit" at)
-if(at EQUAL -1 OR NOT EXISTS ${WORK_DIR}/out.png)
-  message(FATAL_ERROR "the consumer did not render and compare both backends")
-endif()
+foreach(scene ${SCENES})
+  file(REMOVE ${WORK_DIR}/out.png)
+  step("run consumer on ${scene}" 0 ${env} ${WORK_DIR}/consumer/consumer ${WORK_DIR}/${scene}
+       ${WORK_DIR}/out.png)
+  message(STATUS "${step_output}")
+  string(FIND "${step_output}" "agree bit for bit" at)
+  if(at EQUAL -1 OR NOT EXISTS ${WORK_DIR}/out.png)
+    message(FATAL_ERROR "the consumer did not render ${scene} and compare both backends")
+  endif()
+endforeach()
 # Success: the scratch folder goes (builds are large); a failure leaves it to inspect.
 file(REMOVE_RECURSE ${WORK_DIR})
