@@ -39,9 +39,8 @@ struct Kernel {
 // clang's took 1.08-1.16 times g++'s (docs/performance.md, "The compiler"). The buffer
 // structs are f32's own (no vec3 in them), so a packed scene serves both; only the
 // working structs and the functions are compiled again. f32 keeps glm's vec3 for host
-// code that mixes the device math with glm (the tests). double stays glm's everywhere:
-// a 3-lane double vector is passed in AVX registers, a calling convention that would
-// differ between translation units built with and without AVX.
+// code that mixes the device math with glm (the tests). double gets the same where AVX
+// is on (f64_vec, below).
 namespace f32_vec {
 typedef float real;
 typedef float vec3 __attribute__((ext_vector_type(3)));
@@ -76,6 +75,34 @@ struct Kernel {
 };
 }  // namespace f64
 
+#if defined(__clang__) && defined(__AVX__)
+// double likewise, where AVX is on: a 3-lane double vector is 32 bytes, passed in a
+// ymm register with AVX and in memory without, so code compiled without AVX keeps
+// glm's vec3 (f64) and never meets this namespace's functions.
+namespace f64_vec {
+typedef double real;
+typedef double vec3 __attribute__((ext_vector_type(3)));
+using f64::TrBoxPlanes;
+using f64::TrLight;
+using f64::TrMaterial;
+using f64::TrParams;
+using f64::TrPlane;
+using f64::TrSceneRef;
+using f64::TrSlabRows;
+using f64::TrSphere;
+using f64::TrTexture;
+using f64::TrTriangle;
+using f64::TrTriangleAttr;
+#define TR_WORKING_TYPES_ONLY
+#include <twinray/device/types.h>
+#undef TR_WORKING_TYPES_ONLY
+template <unsigned TR_FEATURES>
+struct Kernel {
+#include <twinray/device/functions.h>
+};
+}  // namespace f64_vec
+#endif
+
 // Layout checks: the OpenCL compiler must lay these out the same way; the kernel
 // tr_kernel_layout_sizes reports its sizes and tests/backend/opencl_program_test.cpp
 // compares them.
@@ -107,6 +134,10 @@ static_assert(lane_arrays_on_lines<f32::TrRayPacket, f32::TrBlockScratch>() &&
               "TrRayPacket lane arrays");
 #if defined(__clang__)
 static_assert(lane_arrays_on_lines<f32_vec::TrRayPacket, f32_vec::TrBlockScratch>(),
+              "TrRayPacket lane arrays");
+#endif
+#if defined(__clang__) && defined(__AVX__)
+static_assert(lane_arrays_on_lines<f64_vec::TrRayPacket, f64_vec::TrBlockScratch>(),
               "TrRayPacket lane arrays");
 #endif
 
@@ -165,10 +196,17 @@ struct Code<double> {
   using Nearest = f64::TrNearest;
   template <unsigned Features>
   using Kernel = f64::Kernel<Features>;
+#if defined(__clang__) && defined(__AVX__)
+  template <unsigned Features>
+  using CpuKernel = f64_vec::Kernel<Features>;
+  using CpuBlockScratch = f64_vec::TrBlockScratch;
+  using CpuVec3 = f64_vec::vec3;
+#else
   template <unsigned Features>
   using CpuKernel = f64::Kernel<Features>;
   using CpuBlockScratch = f64::TrBlockScratch;
   using CpuVec3 = f64::vec3;
+#endif
   static constexpr const char* name = "double";
 };
 
