@@ -486,20 +486,28 @@ TEST_CASE("a new block program's first OpenCL frame takes the pixel kernel, the 
   }
 }
 
+namespace {
+// The bytes of `scene` rendered by the command into dir/out.pfm on one backend and
+// precision; a failed render fails the test case.
+std::string render_pfm(const std::string& dir, const std::string& scene, const char* backend,
+                       const char* precision) {
+  Result r = run_twinray(
+      {"render", scene, "-o", "out.pfm", "--backend", backend, "--precision", precision}, dir);
+  REQUIRE_MESSAGE(r.status == 0, r.err);
+  return read_file(dir + "/out.pfm");
+}
+}  // namespace
+
 TEST_CASE("demo.json renders the same bits as the built-in demo, on both backends") {
   std::string dir = fresh_folder(kWork, "demo_json");
   for (const char* precision : {"float", "double"}) {
     std::string reference;
     for (const char* backend : {"cpu", "opencl"})
       for (std::string scene : {std::string("demo"), kScenes + "/demo.json"}) {
-        Result r = run_twinray(
-            {"render", scene, "-o", "out.pfm", "--backend", backend, "--precision", precision},
-            dir);
         CAPTURE(scene);
         CAPTURE(std::string(backend));
         CAPTURE(std::string(precision));
-        REQUIRE_MESSAGE(r.status == 0, r.err);
-        std::string bytes = read_file(dir + "/out.pfm");
+        std::string bytes = render_pfm(dir, scene, backend, precision);
         CHECK(bytes.size() == 16 + 400 * 400 * 12);  // "PF\n400 400\n-1.0\n" + RGB floats
         if (reference.empty())
           reference = bytes;
@@ -518,13 +526,9 @@ TEST_CASE("the BVH torus renders the same bits on both backends, float and doubl
   for (const char* precision : {"float", "double"}) {
     std::string cpu_bytes;
     for (const char* backend : {"cpu", "opencl"}) {
-      Result r = run_twinray({"render", kScenes + "/torus.json", "-o", "out.pfm", "--backend",
-                              backend, "--precision", precision},
-                             dir);
       CAPTURE(std::string(backend));
       CAPTURE(std::string(precision));
-      REQUIRE_MESSAGE(r.status == 0, r.err);
-      std::string bytes = read_file(dir + "/out.pfm");
+      std::string bytes = render_pfm(dir, kScenes + "/torus.json", backend, precision);
       CHECK(bytes.size() == 16 + 480 * 360 * 12);  // "PF\n480 360\n-1.0\n" + RGB floats
       if (cpu_bytes.empty())
         cpu_bytes = bytes;

@@ -39,17 +39,12 @@ file(REMOVE_RECURSE ${WORK_DIR})
 file(MAKE_DIRECTORY ${WORK_DIR})
 set(env ${CMAKE_COMMAND} -E env TWINRAY_CACHE_DIR=${WORK_DIR}/cache/twinray
         POCL_CACHE_DIR=${WORK_DIR}/cache/pocl)
-# The scenes (SCENES, names in examples/scenes; default the demo), kept outside any tree
-# that gets deleted.
+# The example scenes with the files they name (SCENES picks which to render; default the
+# demo), kept outside any tree that gets deleted.
 if(NOT SCENES)
   set(SCENES demo.json)
 endif()
-foreach(scene ${SCENES})
-  file(COPY ${SOURCE_DIR}/examples/scenes/${scene} DESTINATION ${WORK_DIR})
-endforeach()
-if("torus.json" IN_LIST SCENES)
-  file(COPY ${SOURCE_DIR}/examples/scenes/torus.obj DESTINATION ${WORK_DIR})
-endif()
+file(COPY ${SOURCE_DIR}/examples/scenes/ DESTINATION ${WORK_DIR})
 
 if(MODE STREQUAL "installed")
   set(copy ${WORK_DIR}/src)

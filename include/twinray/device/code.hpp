@@ -31,11 +31,26 @@ struct Kernel {
 };
 }  // namespace f32
 
+// The buffer structs (types.h, the part outside TR_WORKING_TYPES_ONLY) of namespace ns,
+// for an instantiation that compiles only the working structs and the functions again.
+#define TWINRAY_DEVICE_SHARE_BUFFER_STRUCTS(ns) \
+  using ns::TrBoxPlanes;                        \
+  using ns::TrLight;                            \
+  using ns::TrMaterial;                         \
+  using ns::TrParams;                           \
+  using ns::TrPlane;                            \
+  using ns::TrSceneRef;                         \
+  using ns::TrSlabRows;                         \
+  using ns::TrSphere;                           \
+  using ns::TrTexture;                          \
+  using ns::TrTriangle;                         \
+  using ns::TrTriangleAttr;
+
 #if defined(__clang__)
 // The CPU backend's float code under clang: vec3 a native 3-lane vector
 // (ext_vector_type, 16 bytes), as float3 is in the OpenCL C that PoCL compiles with the
 // same LLVM. The same operations lane by lane, so the same values; the CPU backend's
-// frames take 0.90-0.98 of g++ 12's time with clang++ 15, where over glm's struct
+// frames take 0.90-1.00 of g++ 12's time with clang++ 15, where over glm's struct
 // clang's took 1.08-1.16 times g++'s (docs/performance.md, "The compiler"). The buffer
 // structs are f32's own (no vec3 in them), so a packed scene serves both; only the
 // working structs and the functions are compiled again. f32 keeps glm's vec3 for host
@@ -44,17 +59,7 @@ struct Kernel {
 namespace f32_vec {
 typedef float real;
 typedef float vec3 __attribute__((ext_vector_type(3)));
-using f32::TrBoxPlanes;
-using f32::TrLight;
-using f32::TrMaterial;
-using f32::TrParams;
-using f32::TrPlane;
-using f32::TrSceneRef;
-using f32::TrSlabRows;
-using f32::TrSphere;
-using f32::TrTexture;
-using f32::TrTriangle;
-using f32::TrTriangleAttr;
+TWINRAY_DEVICE_SHARE_BUFFER_STRUCTS(f32)
 #define TR_WORKING_TYPES_ONLY
 #include <twinray/device/types.h>
 #undef TR_WORKING_TYPES_ONLY
@@ -82,17 +87,7 @@ struct Kernel {
 namespace f64_vec {
 typedef double real;
 typedef double vec3 __attribute__((ext_vector_type(3)));
-using f64::TrBoxPlanes;
-using f64::TrLight;
-using f64::TrMaterial;
-using f64::TrParams;
-using f64::TrPlane;
-using f64::TrSceneRef;
-using f64::TrSlabRows;
-using f64::TrSphere;
-using f64::TrTexture;
-using f64::TrTriangle;
-using f64::TrTriangleAttr;
+TWINRAY_DEVICE_SHARE_BUFFER_STRUCTS(f64)
 #define TR_WORKING_TYPES_ONLY
 #include <twinray/device/types.h>
 #undef TR_WORKING_TYPES_ONLY
@@ -101,6 +96,18 @@ struct Kernel {
 #include <twinray/device/functions.h>
 };
 }  // namespace f64_vec
+#endif
+
+// The code the CPU backend renders with, per precision (Code<T>::CpuKernel).
+#if defined(__clang__)
+namespace f32_cpu = f32_vec;
+#else
+namespace f32_cpu = f32;
+#endif
+#if defined(__clang__) && defined(__AVX__)
+namespace f64_cpu = f64_vec;
+#else
+namespace f64_cpu = f64;
 #endif
 
 // Layout checks: the OpenCL compiler must lay these out the same way; the kernel
@@ -130,16 +137,10 @@ constexpr bool lane_arrays_on_lines() {
          offsetof(Scratch, n_dot_h) % TR_LINE_BYTES == 0;
 }
 static_assert(lane_arrays_on_lines<f32::TrRayPacket, f32::TrBlockScratch>() &&
-                  lane_arrays_on_lines<f64::TrRayPacket, f64::TrBlockScratch>(),
+                  lane_arrays_on_lines<f64::TrRayPacket, f64::TrBlockScratch>() &&
+                  lane_arrays_on_lines<f32_cpu::TrRayPacket, f32_cpu::TrBlockScratch>() &&
+                  lane_arrays_on_lines<f64_cpu::TrRayPacket, f64_cpu::TrBlockScratch>(),
               "TrRayPacket lane arrays");
-#if defined(__clang__)
-static_assert(lane_arrays_on_lines<f32_vec::TrRayPacket, f32_vec::TrBlockScratch>(),
-              "TrRayPacket lane arrays");
-#endif
-#if defined(__clang__) && defined(__AVX__)
-static_assert(lane_arrays_on_lines<f64_vec::TrRayPacket, f64_vec::TrBlockScratch>(),
-              "TrRayPacket lane arrays");
-#endif
 
 // Maps the scalar type T to its instantiation of the device code.
 template <class T>
@@ -163,18 +164,10 @@ struct Code<float> {
   using Nearest = f32::TrNearest;
   template <unsigned Features>
   using Kernel = f32::Kernel<Features>;
-  // What the CPU backend renders with: f32_vec's code under clang, else f32's.
-#if defined(__clang__)
   template <unsigned Features>
-  using CpuKernel = f32_vec::Kernel<Features>;
-  using CpuBlockScratch = f32_vec::TrBlockScratch;
-  using CpuVec3 = f32_vec::vec3;
-#else
-  template <unsigned Features>
-  using CpuKernel = f32::Kernel<Features>;
-  using CpuBlockScratch = f32::TrBlockScratch;
-  using CpuVec3 = f32::vec3;
-#endif
+  using CpuKernel = f32_cpu::Kernel<Features>;
+  using CpuBlockScratch = f32_cpu::TrBlockScratch;
+  using CpuVec3 = f32_cpu::vec3;
   static constexpr const char* name = "float";
 };
 
@@ -196,17 +189,10 @@ struct Code<double> {
   using Nearest = f64::TrNearest;
   template <unsigned Features>
   using Kernel = f64::Kernel<Features>;
-#if defined(__clang__) && defined(__AVX__)
   template <unsigned Features>
-  using CpuKernel = f64_vec::Kernel<Features>;
-  using CpuBlockScratch = f64_vec::TrBlockScratch;
-  using CpuVec3 = f64_vec::vec3;
-#else
-  template <unsigned Features>
-  using CpuKernel = f64::Kernel<Features>;
-  using CpuBlockScratch = f64::TrBlockScratch;
-  using CpuVec3 = f64::vec3;
-#endif
+  using CpuKernel = f64_cpu::Kernel<Features>;
+  using CpuBlockScratch = f64_cpu::TrBlockScratch;
+  using CpuVec3 = f64_cpu::vec3;
   static constexpr const char* name = "double";
 };
 

@@ -20,9 +20,9 @@
  *                       unrolling a short constant-trip loop into scalar code before its
  *                       vectorizer sees it (the 4-wide box loop stayed scalar); nothing
  *                       elsewhere
- *   TR_LANE_LOOP        before a loop over one 16-ray group of a packet: TR_SIMD_LOOP on
- *                       the host (g++ makes it one AVX-512 vector); on an AVX-512 CPU
- *                       under clang (PoCL), 16 lanes and 512-bit registers, where
+ *   TR_LANE_LOOP        before a loop over one 16-ray group of a packet: TR_SIMD_LOOP under
+ *                       g++ (it makes it one AVX-512 vector); on an AVX-512 CPU under
+ *                       clang (PoCL, or the host), 16 lanes and 512-bit registers, where
  *                       LLVM 15 would pick 8 lanes for `skylake-avx512` (TR_WIDE_VECTORS
  *                       on every function lets the backend use the 512-bit registers)
  *   TR_LOWEST_BIT(m)    index of the lowest set bit of a nonzero unsigned int (an
@@ -58,7 +58,6 @@
  * them. LLVM 15 would pick 8 lanes for `skylake-avx512`: PoCL frames 0.90 (mesh_1e6) to
  * 0.98 of the time with 8 (docs/performance.md). */
 #if defined(__clang__) && defined(__AVX512F__)
-#define TR_CLANG_AVX512 1
 #define TR_WIDE_VECTORS __attribute__((min_vector_width(512)))
 #define TR_LANE_LOOP _Pragma("clang loop vectorize_width(16)")
 #else
@@ -86,7 +85,7 @@ typedef float3 vec3;
  * packet, each with its walk inlined, so the kernel's work-group function stays small.
  * With the one-ray queries inlined into it, a cold first frame took 2.7 s instead of
  * 1.8-2.0; with the packet queries, 12-13% longer (docs/performance.md). */
-#ifndef TR_CLANG_AVX512
+#ifndef TR_LANE_LOOP
 #define TR_LANE_LOOP
 #endif
 #define TR_FN static inline TR_WIDE_VECTORS
@@ -134,7 +133,7 @@ typedef ulong tr_mask64;
 #else
 #define TR_SIMD_LOOP
 #endif
-#ifndef TR_CLANG_AVX512
+#ifndef TR_LANE_LOOP
 #define TR_LANE_LOOP TR_SIMD_LOOP
 #endif
 namespace twinray {

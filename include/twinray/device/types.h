@@ -7,11 +7,11 @@
  * and the tests check them against the kernel's own sizeof.
  *
  * No include guard: the host includes this file once per precision, in namespaces
- * twinray::device::f32 and ::f64, and under clang the working structs once more, in
- * ::f32_vec (code.hpp). */
+ * twinray::device::f32 and ::f64, and under clang the working structs once more per
+ * precision, in ::f32_vec and ::f64_vec (code.hpp). */
 
 /* ---- buffer structs ---- */
-#ifndef TR_WORKING_TYPES_ONLY /* code.hpp's second float instantiation shares these */
+#ifndef TR_WORKING_TYPES_ONLY /* code.hpp's native-vector instantiations share these */
 
 typedef struct TrSphere {
   real cx, cy, cz, radius;
