@@ -14,6 +14,7 @@
 
 #include <twinray/twinray.hpp>
 
+#include "bench_scenes.hpp"
 #include "bvh_scenes.hpp"
 #include "support/page_flags.hpp"
 #include "support/packing.hpp"
@@ -606,6 +607,38 @@ TEST_CASE("bvh: small scenes of spheres alone are split into smaller leaves") {
   MESSAGE("primitives per leaf: alone ", alone_per_leaf, ", with a triangle ", mixed_per_leaf);
   CHECK(alone_per_leaf < 2.0);
   CHECK(mixed_per_leaf > 2.5);
+}
+
+TEST_CASE("bvh: large meshes merge into larger leaves") {
+  using twinray::bvh::kLargeMeshScene;
+  using twinray::bvh::kLargeMeshTraversalCost;
+  using twinray::bvh::kTraversalCost;
+  using twinray::bvh::traversal_cost;
+  CHECK(traversal_cost(0, kLargeMeshScene - 1) == kTraversalCost);
+  CHECK(traversal_cost(0, kLargeMeshScene) == kLargeMeshTraversalCost);
+  CHECK(traversal_cost(10, kLargeMeshScene) == kLargeMeshTraversalCost);
+  CHECK(kLargeMeshTraversalCost > kTraversalCost);
+  // One triangle across the threshold: the same bumpy closed surface of small
+  // triangles (mesh_<N>'s, bench_scenes.hpp), cut to 2^17 triangles and to one fewer,
+  // splits into fewer, larger leaves.
+  auto blob_scene = [](long long n_triangles) {
+    twinray::Mesh<float> blob = twinray_bench::blob_mesh<float>(4 * 182 * 182, 0);
+    REQUIRE(blob.triangles.size() > static_cast<size_t>(n_triangles));
+    blob.triangles.resize(static_cast<size_t>(n_triangles));
+    twinray::Scene<float> scene;
+    scene.add_material(twinray::Material<float>{});
+    scene.add(blob);
+    return scene;
+  };
+  const int n = static_cast<int>(kLargeMeshScene);
+  auto below = pack_with_bvh(blob_scene(n - 1));
+  auto at = pack_with_bvh(blob_scene(n));
+  REQUIRE(at.triangles.size() == static_cast<size_t>(n));
+  check_structure(at);
+  const double below_per_leaf = (n - 1.0) / twinray::bvh::wide_stats(below.bvh_nodes).leaves;
+  const double at_per_leaf = static_cast<double>(n) / twinray::bvh::wide_stats(at.bvh_nodes).leaves;
+  MESSAGE("triangles per leaf: ", below_per_leaf, " below the threshold, ", at_per_leaf, " at it");
+  CHECK(at_per_leaf > below_per_leaf * 1.3);
 }
 
 TEST_CASE_TEMPLATE("bvh: traversal finds exactly the linear loops' closest hit", T, float, double) {

@@ -84,7 +84,17 @@ constexpr double kTraversalCost = 2.0;
 // spheres_1e6 0.94, 0.94 and 1.01 while its build took 1.4-1.55 times as long, and
 // the meshes rendered 2-8% slower, so those keep 2 (docs/performance.md).
 constexpr long long kSmallSphereScene = 1 << 17;
+// Scenes of at least kLargeMeshScene triangles merge further, at a traversal cost of 3:
+// their tree outgrows the caches, a node read from memory costs more than the
+// triangles a packet's rays test side by side in a larger leaf, and at cost 3 mesh_1e6
+// has 4.4 triangles per leaf instead of 2.8 and 66 k wide nodes instead of 115 k.
+// Against cost 2 (AMD EPYC, Zen 5 class, paired A/B of both load orders, same bits):
+// mesh_1e6 0.94-0.95 of the frame; mesh_1e4 at cost 3 1.005 and at cost 4 1.064
+// (mesh_1e6 0.975), so smaller meshes keep 2 (docs/performance.md).
+constexpr long long kLargeMeshScene = 1 << 17;
+constexpr double kLargeMeshTraversalCost = 3.0;
 inline double traversal_cost(long long n_spheres, long long n_triangles) {
+  if (n_triangles >= kLargeMeshScene) return kLargeMeshTraversalCost;
   return n_triangles == 0 && n_spheres < kSmallSphereScene ? 1.0 : kTraversalCost;
 }
 constexpr int kParallelMinPrims = 16384;  // smaller subtrees are built on the calling thread
