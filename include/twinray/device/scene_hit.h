@@ -163,7 +163,7 @@ TR_FN_OUTLINE void tr_closest_hit_packet(const TrSceneRef* s, TrRayPacket* pk, T
     if (found[r])
       tr_record_hit(s, pk->ray[r], nearest, &hit[r]); /* writes every field */
     else
-      hit[r] = tr_no_hit();
+      tr_set_no_hit(&hit[r]);
   }
 }
 
