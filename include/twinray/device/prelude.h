@@ -105,6 +105,7 @@ typedef ulong tr_mask64;
 #define TR_LOWEST_BIT64(m) (63 - (int)clz((m) & ((tr_mask64)0 - (m))))
 #define TR_POPCOUNT(m) ((int)popcount(m))
 #define TR_SIMD_LOOP
+#define TR_INDEPENDENT_LOOP
 #ifndef TR_FEATURES
 #error "TR_FEATURES (the Features mask) must be passed as a build option"
 #endif
@@ -135,6 +136,15 @@ typedef ulong tr_mask64;
 #endif
 #ifndef TR_LANE_LOOP
 #define TR_LANE_LOOP TR_SIMD_LOOP
+#endif
+/* A loop whose iterations touch disjoint memory, which the compiler cannot prove (the
+ * arrays are fields of one struct, read through a pointer): vectorize it regardless. */
+#if defined(__clang__)
+#define TR_INDEPENDENT_LOOP _Pragma("clang loop vectorize(assume_safety)")
+#elif defined(__GNUC__)
+#define TR_INDEPENDENT_LOOP _Pragma("GCC ivdep") TR_SIMD_LOOP
+#else
+#define TR_INDEPENDENT_LOOP
 #endif
 namespace twinray {
 namespace device {
