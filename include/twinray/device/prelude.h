@@ -34,6 +34,9 @@
  *   TR_ALIGNED(n), TR_LINE_BYTES
  *                       aligns the struct or declaration it comes before to n bytes, and
  *                       a cache line's size: the packet's per-ray arrays start on a line
+ *   TR_INDEPENDENT_LOOP before a loop whose iterations touch disjoint memory that the
+ *                       compiler cannot prove apart (fields of one struct read through a
+ *                       pointer): clang's assume_safety (PoCL and the host), g++'s ivdep
  *   TR_LANE_GROUP_MIN_RAYS
  *                       the fewest rays of a 16-ray group for which a leaf's primitives
  *                       are tested a ray per SIMD lane (tr_packet_leaf, bvh_packet.h);
@@ -62,6 +65,14 @@
 #define TR_LANE_LOOP _Pragma("clang loop vectorize_width(16)")
 #else
 #define TR_WIDE_VECTORS
+#endif
+
+/* TR_INDEPENDENT_LOOP, before a loop whose iterations touch disjoint memory that the
+ * compiler cannot prove apart (arrays that are fields of one struct, read through a
+ * pointer into it): vectorize it regardless. Under clang (PoCL's kernels, and the
+ * host); g++'s form is below. */
+#if defined(__clang__)
+#define TR_INDEPENDENT_LOOP _Pragma("clang loop vectorize(assume_safety)")
 #endif
 
 #if defined(__OPENCL_VERSION__) || defined(__OPENCL_C_VERSION__)
@@ -105,7 +116,6 @@ typedef ulong tr_mask64;
 #define TR_LOWEST_BIT64(m) (63 - (int)clz((m) & ((tr_mask64)0 - (m))))
 #define TR_POPCOUNT(m) ((int)popcount(m))
 #define TR_SIMD_LOOP
-#define TR_INDEPENDENT_LOOP
 #ifndef TR_FEATURES
 #error "TR_FEATURES (the Features mask) must be passed as a build option"
 #endif
@@ -137,14 +147,8 @@ typedef ulong tr_mask64;
 #ifndef TR_LANE_LOOP
 #define TR_LANE_LOOP TR_SIMD_LOOP
 #endif
-/* A loop whose iterations touch disjoint memory, which the compiler cannot prove (the
- * arrays are fields of one struct, read through a pointer): vectorize it regardless. */
-#if defined(__clang__)
-#define TR_INDEPENDENT_LOOP _Pragma("clang loop vectorize(assume_safety)")
-#elif defined(__GNUC__)
+#if defined(__GNUC__) && !defined(__clang__)
 #define TR_INDEPENDENT_LOOP _Pragma("GCC ivdep") TR_SIMD_LOOP
-#else
-#define TR_INDEPENDENT_LOOP
 #endif
 namespace twinray {
 namespace device {
@@ -217,6 +221,10 @@ inline long long& ray_counter() {
 #define TR_ALIGNED(n) alignas(n)
 #endif
 #define TR_LINE_BYTES 64
+
+#ifndef TR_INDEPENDENT_LOOP
+#define TR_INDEPENDENT_LOOP
+#endif
 
 #define TR_R(lit) ((real)(lit))
 #define TR_HAS(bit) ((TR_FEATURES & (bit)) != 0u)
