@@ -106,7 +106,7 @@ TR_FN int tr_packet_begin(TrRayPacket* pk) {
   real grow = tr_box_grow();
   int incoherent = 0;
   if (TR_HAS(TR_F_TRIANGLES)) {
-    TR_SIMD_LOOP
+    TR_LANE_LOOP
     for (int r = 0; r < n; ++r) {
       TrTriangleRay tr = tr_triangle_ray_dir(TR_VEC3(pk->dx[r], pk->dy[r], pk->dz[r]));
       pk->tri_sx[r] = tr.sx;
@@ -119,7 +119,7 @@ TR_FN int tr_packet_begin(TrRayPacket* pk) {
   }
   /* In scalars: over TrBoxRay's float3 fields, LLVM's loop vectorizer left this loop
    * scalar on PoCL. */
-  TR_SIMD_LOOP
+  TR_LANE_LOOP
   for (int r = 0; r < n; ++r) {
     real dx = pk->dx[r], dy = pk->dy[r], dz = pk->dz[r];
     real ix = tr_box_inv(dx), iy = tr_box_inv(dy), iz = tr_box_inv(dz);

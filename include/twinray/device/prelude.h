@@ -71,7 +71,9 @@
  * compiler cannot prove apart (arrays that are fields of one struct, read through a
  * pointer into it): vectorize it regardless. Under clang (PoCL's kernels, and the
  * host); g++'s form is below. */
-#if defined(__clang__)
+#if defined(__clang__) && defined(__AVX512F__)
+#define TR_INDEPENDENT_LOOP _Pragma("clang loop vectorize(assume_safety) vectorize_width(16)")
+#elif defined(__clang__)
 #define TR_INDEPENDENT_LOOP _Pragma("clang loop vectorize(assume_safety)")
 #endif
 

@@ -127,7 +127,7 @@ TR_FN_INLINE void tr_packet_planes(const TrSceneRef* s, TrRayPacket* pk, int any
   int n_bounded = s->params->n_spheres + s->params->n_triangles;
   for (int i = 0; i < s->params->n_planes; ++i) {
     vec3 normal = tr_plane_normal(&s->planes[i]), point = tr_plane_point(&s->planes[i]);
-    TR_SIMD_LOOP
+    TR_LANE_LOOP
     for (int r = 0; r < pk->n; ++r) {
       real t;
       int hit = tr_plane_hit_at(normal, point, tr_packet_ray(pk, r), &t);
