@@ -20,8 +20,9 @@
  *                       unrolling a short constant-trip loop into scalar code before its
  *                       vectorizer sees it (the 4-wide box loop stayed scalar); nothing
  *                       elsewhere
- *   TR_LANE_LOOP        before a loop over one 16-ray group of a packet: TR_SIMD_LOOP under
- *                       g++ (it makes it one AVX-512 vector); on an AVX-512 CPU under
+ *   TR_LANE_LOOP        before a loop over a packet's rays (one 16-ray group, or all of
+ *                       them): TR_SIMD_LOOP under g++ (a group is one AVX-512 vector);
+ *                       on an AVX-512 CPU under
  *                       clang (PoCL, or the host), 16 lanes and 512-bit registers, where
  *                       LLVM 15 would pick 8 lanes for `skylake-avx512` (TR_WIDE_VECTORS
  *                       on every function lets the backend use the 512-bit registers)
