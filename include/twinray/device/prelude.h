@@ -23,9 +23,9 @@
  *   TR_LANE_LOOP        before a loop over a packet's rays (one 16-ray group, or all of
  *                       them): TR_SIMD_LOOP under g++ (a group is one AVX-512 vector);
  *                       on an AVX-512 CPU under clang (PoCL, or the host), 16 lanes
- *                       and 512-bit registers, where
- *                       LLVM 15 would pick 8 lanes for `skylake-avx512` (TR_WIDE_VECTORS
- *                       on every function lets the backend use the 512-bit registers)
+ *                       and 512-bit registers, where LLVM 15 would pick 8 lanes for
+ *                       `skylake-avx512` (TR_WIDE_VECTORS on every function lets the
+ *                       backend use the 512-bit registers)
  *   TR_LOWEST_BIT(m)    index of the lowest set bit of a nonzero unsigned int (an
  *                       integer builtin on both sides: exact, so parity is not at stake)
  *   tr_mask64, TR_LOWEST_BIT64(m)

@@ -89,7 +89,7 @@ constexpr long long kSmallSphereScene = 1 << 17;
 // triangles a packet's rays test side by side in a larger leaf, and at cost 3 mesh_1e6
 // has 4.4 triangles per leaf instead of 2.8 and 66 k wide nodes instead of 115 k.
 // Against cost 2 (AMD EPYC, Zen 5 class, paired A/B of both load orders, same bits):
-// mesh_1e6 0.94-0.95 of the frame; mesh_1e4 at cost 3 1.005 and at cost 4 1.064
+// mesh_1e6 0.94-0.96 of the frame; mesh_1e4 at cost 3 1.005-1.047, at cost 4 1.064
 // (mesh_1e6 0.975), so smaller meshes keep 2 (docs/performance.md).
 constexpr long long kLargeMeshScene = 1 << 17;
 constexpr double kLargeMeshTraversalCost = 3.0;
