@@ -143,7 +143,7 @@ TR_FN_OUTLINE void tr_closest_hit_packet(const TrSceneRef* s, TrRayPacket* pk, T
                                          int* found) {
   if (!tr_use(s, TR_F_BVH)) {
     for (int r = 0; r < pk->n; ++r) {
-      hit[r] = tr_no_hit();
+      tr_set_no_hit(&hit[r]);
       found[r] = tr_closest_hit(s, &pk->ray[r], TR_R(INFINITY), &hit[r]);
     }
     return;
