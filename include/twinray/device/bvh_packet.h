@@ -130,7 +130,7 @@ TR_FN int tr_packet_begin(TrRayPacket* pk) {
     pk->fx[r] = fx;
     pk->fy[r] = fy;
     pk->fz[r] = fz;
-    real afx = fabs(fx), afy = fabs(fy), afz = fabs(fz);
+    real afx = tr_fabs(fx), afy = tr_fabs(fy), afz = tr_fabs(fz);
     int coherent = (dx * d0.x > TR_R(0.0)) & (dy * d0.y > TR_R(0.0)) & (dz * d0.z > TR_R(0.0)) &
                    (afx < TR_R(INFINITY)) & (afy < TR_R(INFINITY)) & (afz < TR_R(INFINITY));
     incoherent |= !coherent;

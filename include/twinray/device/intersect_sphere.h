@@ -47,7 +47,7 @@ TR_FN_INLINE real tr_sphere_c(vec3 f, vec3 o, vec3 center, real r, int branches)
   real ff = tr_dot(f, f);
   real r2 = r * r;
   real c = ff - r2;
-  int cancels = fabs(c) < TR_R(0.5) * (ff + r2);
+  int cancels = tr_fabs(c) < TR_R(0.5) * (ff + r2);
   if (branches && !cancels) return c;
   real accurate = tr_sphere_c_accurate(o, center, r);
   return cancels ? accurate : c;
@@ -77,13 +77,13 @@ TR_FN_INLINE int tr_sphere_hit_at(vec3 center, real r, TrRay ray, int branches, 
   int near = TR_R(2.0) * (b * b) < a * r2;
   if (!branches || near) {
     c = tr_sphere_c(f, ray.o, center, r, branches);
-    int accurate = near & (TR_R(2.0) * (b * b) + a * fabs(c) < a * r2);
+    int accurate = near & (TR_R(2.0) * (b * b) + a * tr_fabs(c) < a * r2);
     root_arg = accurate ? b * b - a * c : root_arg;
   }
   int miss = root_arg < TR_R(0.0);
   if (branches && miss) return 0;
   if (branches && !near) c = tr_sphere_c(f, ray.o, center, r, branches);
-  real root = sqrt(root_arg); /* NaN where root_arg < 0: a miss, selected away */
+  real root = tr_sqrt(root_arg); /* NaN where root_arg < 0: a miss, selected away */
   real q = b + (b >= TR_R(0.0) ? root : -root);
   miss |= q == TR_R(0.0); /* origin on the sphere and tangent: no finite root */
   if (branches && miss) return 0;

@@ -104,7 +104,7 @@ TR_FN_INLINE int tr_triangle_hit_at(vec3 p0, vec3 p1, vec3 p2, vec3 o, const TrT
         TR_R(2.0) * (tr_gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
     real max_e = tr_max_abs(e0, e1, e2);
     real delta_t = TR_R(3.0) * (tr_gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) *
-                   fabs(inv_det);
+                   tr_fabs(inv_det);
     miss |= straddles & !(t > delta_t);
   }
 
@@ -158,7 +158,7 @@ TR_FN void tr_triangle_record(TR_GLOBAL const TrTriangle* tri, TrRay ray, const 
   hit->t = t;
   hit->p = p0 * b.x + p1 * b.y + p2 * b.z;
   hit->perr = (tr_abs3(p0 * b.x) + tr_abs3(p1 * b.y) + tr_abs3(p2 * b.z)) * tr_gamma(7);
-  hit->n = normal * (TR_R(1.0) / sqrt(tr_dot(normal, normal)));
+  hit->n = normal * (TR_R(1.0) / tr_sqrt(tr_dot(normal, normal)));
   hit->material = tri->material;
   hit->object = tri->object;
 }
@@ -191,7 +191,7 @@ TR_FN void tr_triangle_attributes(TR_GLOBAL const TrTriangleAttr* a,
   vec3 ns = n0 * b.x + n1 * b.y + n2 * b.z;
   real len2 = tr_dot(ns, ns);
   if (!(len2 > TR_R(0.0))) return; /* opposite normals cancel: keep the geometric one */
-  hit->ns = ns * (TR_R(1.0) / sqrt(len2));
+  hit->ns = ns * (TR_R(1.0) / tr_sqrt(len2));
 
   /* Turn the vertex normals to the side the ray came from. */
   vec3 facing = tr_dot(hit->n, ray_dir) > TR_R(0.0) ? -hit->n : hit->n;

@@ -2,6 +2,33 @@
  * only: those are exactly rounded on both sides, where built-ins such as dot,
  * normalize or pow are implementation-defined (docs/architecture.md, "Bitwise parity"). */
 
+/* |x| and the correctly rounded square root. Under clang's OpenCL C (PoCL) they are
+ * clang's built-ins, which become LLVM intrinsics: OpenCL C's fabs and sqrt are calls
+ * into the device's library, which PoCL links only after the front end has optimized
+ * the program, and OpenCL C marks every call convergent (it may hold a barrier). LLVM's
+ * loop vectorizer does not if-convert a loop around a convergent call, so every
+ * ray-per-lane loop that called fabs stayed scalar on PoCL, the packet's triangle test
+ * among them (docs/performance.md, "OpenCL C's library calls"). Same values: both are
+ * exact IEEE operations on either side. */
+#if defined(TR_DEVICE) && defined(__clang__)
+#ifdef TR_DOUBLE
+#define TR_BUILTIN_FABS __builtin_fabs
+#define TR_BUILTIN_SQRT __builtin_sqrt
+#else
+#define TR_BUILTIN_FABS __builtin_fabsf
+#define TR_BUILTIN_SQRT __builtin_sqrtf
+#endif
+#else
+#define TR_BUILTIN_FABS fabs
+#define TR_BUILTIN_SQRT sqrt
+#endif
+TR_FN_INLINE real tr_fabs(real x) {
+  return TR_BUILTIN_FABS(x);
+}
+TR_FN_INLINE real tr_sqrt(real x) {
+  return TR_BUILTIN_SQRT(x);
+}
+
 TR_FN real tr_min(real a, real b) {
   return a < b ? a : b;
 }
@@ -37,15 +64,15 @@ TR_FN vec3 tr_cross(vec3 a, vec3 b) {
 }
 
 TR_FN real tr_length(vec3 v) {
-  return sqrt(tr_dot(v, v));
+  return tr_sqrt(tr_dot(v, v));
 }
 
 TR_FN vec3 tr_normalize(vec3 v) {
-  return v * (TR_R(1.0) / sqrt(tr_dot(v, v)));
+  return v * (TR_R(1.0) / tr_sqrt(tr_dot(v, v)));
 }
 
 TR_FN vec3 tr_abs3(vec3 v) {
-  return TR_VEC3(fabs(v.x), fabs(v.y), fabs(v.z));
+  return TR_VEC3(tr_fabs(v.x), tr_fabs(v.y), tr_fabs(v.z));
 }
 
 TR_FN real tr_max_component(vec3 v) {
@@ -59,7 +86,7 @@ TR_FN_INLINE real tr_component(vec3 v, int i) {
 /* The greatest magnitude of three: tr_max_component(tr_abs3(v)) for v = (x, y, z), in
  * scalars (no float3 arithmetic, which LLVM's loop vectorizer does not widen). */
 TR_FN_INLINE real tr_max_abs(real x, real y, real z) {
-  return tr_max(fabs(x), tr_max(fabs(y), fabs(z)));
+  return tr_max(tr_fabs(x), tr_max(tr_fabs(y), tr_fabs(z)));
 }
 
 /* Unit roundoff of real: 2^-24 for float, 2^-53 for double. */
@@ -142,7 +169,7 @@ TR_FN real tr_pow_unit(real x, real p) {
   real root = x;
   for (int k = 0; k < digits && frac > TR_R(0.0); ++k) {
     frac = frac * TR_R(2.0); /* exact: shifts the next binary digit in front */
-    root = sqrt(root);
+    root = tr_sqrt(root);
     if (frac >= TR_R(1.0)) {
       result = result * root;
       frac = frac - TR_R(1.0);

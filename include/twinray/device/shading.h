@@ -49,7 +49,7 @@ TR_FN TrLightView tr_light_view(const TrSceneRef* s, const TrHit* hit, vec3 n, i
   lv.irradiance = TR_VEC3(light->r, light->g, light->b) * (TR_R(1.0) / dist2);
   lv.lit = TR_LIGHT_AMBIENT;
   if (!tr_use(s, TR_F_DIFFUSE) && !tr_use(s, TR_F_SPECULAR)) return lv;
-  lv.l = to_light * (TR_R(1.0) / sqrt(dist2));
+  lv.l = to_light * (TR_R(1.0) / tr_sqrt(dist2));
   lv.n_dot_l = tr_dot(n, lv.l);
   if (lv.n_dot_l > TR_R(0.0)) lv.lit = TR_LIGHT_ALL; /* else: behind the surface */
   return lv;
