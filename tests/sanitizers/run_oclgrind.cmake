@@ -7,8 +7,10 @@
 # optimizer emits (the rotations of the samplers), and unoptimized code has every
 # access the source has. It is also built with -DTR_NO_ALWAYS_INLINE: clang's
 # always-inliner runs even unoptimized and emits llvm.experimental.noalias.scope.decl,
-# which Oclgrind 21.10 does not know either; inlining changes no memory access. The
-# image must also be bit for bit the CPU backend's.
+# which Oclgrind 21.10 does not know either; inlining changes no memory access. And
+# with -DTR_LIBRARY_MATH: OpenCL C's fabs and sqrt instead of clang's built-ins
+# (device/math.h), whose llvm.fabs and llvm.sqrt Oclgrind 21.10 does not know; the same
+# values. The image must also be bit for bit the CPU backend's.
 #   cmake -DTWINRAY=<exe> -DOCLGRIND=<exe> -DWORK_DIR=<dir> -DSCENE=<json|demo>
 #         -DARGS="<extra render args>" [-DUNINITIALIZED=ON] -P run_oclgrind.cmake
 cmake_minimum_required(VERSION 3.19)
@@ -16,7 +18,8 @@ separate_arguments(ARGS UNIX_COMMAND "${ARGS}")
 file(REMOVE_RECURSE ${WORK_DIR})
 file(MAKE_DIRECTORY ${WORK_DIR})
 set(log ${WORK_DIR}/oclgrind.log)
-set(tools --check-api --data-races --build-options "-cl-opt-disable -DTR_NO_ALWAYS_INLINE")
+set(tools --check-api --data-races --build-options
+          "-cl-opt-disable -DTR_NO_ALWAYS_INLINE -DTR_LIBRARY_MATH")
 if(UNINITIALIZED)
   list(APPEND tools --uninitialized)
 endif()

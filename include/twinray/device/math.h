@@ -10,8 +10,9 @@
  * end left every ray-per-lane loop that called fabs scalar, the packet's triangle test
  * among them, and said so in the build log (its later compile of the work-group
  * function recovered most of it: docs/performance.md, "Other measured changes"). Same
- * values: both are exact IEEE operations on either side. */
-#if defined(TR_DEVICE) && defined(__clang__)
+ * values: both are exact IEEE operations on either side. TR_LIBRARY_MATH keeps OpenCL
+ * C's (Oclgrind 21.10 knows neither llvm.fabs nor llvm.sqrt: run_oclgrind.cmake). */
+#if defined(TR_DEVICE) && defined(__clang__) && !defined(TR_LIBRARY_MATH)
 #ifdef TR_DOUBLE
 #define TR_BUILTIN_FABS __builtin_fabs
 #define TR_BUILTIN_SQRT __builtin_sqrt
