@@ -50,6 +50,17 @@ inline std::string build_options(const DeviceInfo& device, unsigned features, bo
   return options;
 }
 
+// The compiler's messages for a program built for `device` (CL_PROGRAM_BUILD_LOG);
+// "" where there are none.
+inline std::string program_build_log(cl_program program, cl_device_id device) {
+  size_t size = 0;
+  clGetProgramBuildInfo(program, device, CL_PROGRAM_BUILD_LOG, 0, nullptr, &size);
+  std::string log(size, '\0');
+  if (size > 0)
+    clGetProgramBuildInfo(program, device, CL_PROGRAM_BUILD_LOG, size, &log[0], nullptr);
+  return log;
+}
+
 // FNV-1a, 64 bit: the on-disk cache key.
 inline uint64_t fnv1a(const std::string& s, uint64_t h = 1469598103934665603ull) {
   for (unsigned char c : s) h = (h ^ c) * 1099511628211ull;
@@ -212,7 +223,7 @@ class ProgramCache {
     check(err, "clCreateProgramWithSource");
     err = clBuildProgram(program, 1, &info_.device, options.c_str(), nullptr, nullptr);
     if (err != CL_SUCCESS) {
-      std::string log = build_log(program);
+      std::string log = program_build_log(program, info_.device);
       clReleaseProgram(program);
       throw Error(ErrorKind::RuntimeFailure, std::string("OpenCL program build failed on ") +
                                                  info_.name + " (" + error_name(err) +
@@ -244,15 +255,6 @@ class ProgramCache {
       return nullptr;
     }
     return program;
-  }
-
-  std::string build_log(cl_program program) const {
-    size_t size = 0;
-    clGetProgramBuildInfo(program, info_.device, CL_PROGRAM_BUILD_LOG, 0, nullptr, &size);
-    std::string log(size, '\0');
-    if (size > 0)
-      clGetProgramBuildInfo(program, info_.device, CL_PROGRAM_BUILD_LOG, size, &log[0], nullptr);
-    return log;
   }
 
   cl_context context_;
