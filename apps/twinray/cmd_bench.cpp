@@ -35,7 +35,8 @@ struct BenchArgs {
   std::string obj_dir = ".";
   std::string against;  // a comparison program: interleaved rounds and ratios
   int rounds = 3;
-  std::string plot;  // a PNG of the cost per ray against the primitive count
+  bool interleave = false;  // the backends' timed frames alternate in one loop
+  std::string plot;         // a PNG of the cost per ray against the primitive count
 };
 
 bool is_builtin(const std::string& name) {
@@ -189,14 +190,13 @@ int run_compare(const BenchArgs& a, const std::vector<std::string>& scenes,
       std::vector<twinray::Backend> order = backends;
       if (comparator_first) std::reverse(order.begin(), order.end());
       double cpu = 0, cpu_build = 0;
-      for (twinray::Backend backend : order) {
-        twinray_bench::Row row = twinray_bench::run(b, backend, config);
+      for (const twinray_bench::Row& row : twinray_bench::run_backends(b, order, config)) {
         std::cerr << "twinray: " << twinray_bench::csv_line(row) << "\n";
         std::string system = "twinray-" + row.backend;
         s.ms[system].push_back(row.median_ms);
         if (std::find(systems.begin(), systems.end(), system) == systems.end())
           systems.push_back(system);
-        if (backend == twinray::Backend::Cpu) cpu = row.median_ms, cpu_build = row.build_ms;
+        if (row.backend == "cpu") cpu = row.median_ms, cpu_build = row.build_ms;
         s.rays = row.rays;
         s.primitives = row.primitives;
       }
@@ -277,6 +277,7 @@ int run_bench(const BenchArgs& a) {
   if (a.precision != "float") precisions.push_back("double");
   twinray_bench::Config config;
   config.runs = a.runs;
+  config.interleave = a.interleave;
   twinray::set_thread_count(a.threads);
   config.bvh = a.bvh == "on" ? 1 : (a.bvh == "off" ? -1 : 0);
   config.bvh_width = a.bvh_width;
@@ -295,8 +296,8 @@ int run_bench(const BenchArgs& a) {
       auto one = [&](auto zero) {
         using T = decltype(zero);
         twinray_bench::BenchScene<T> b = load<T>(name, a);
-        for (twinray::Backend backend : backends)
-          std::cout << twinray_bench::csv_line(twinray_bench::run(b, backend, config)) << std::endl;
+        for (const twinray_bench::Row& row : twinray_bench::run_backends(b, backends, config))
+          std::cout << twinray_bench::csv_line(row) << std::endl;
       };
       if (precision == "double")
         one(0.0);
@@ -331,6 +332,9 @@ const Command kBench(
       app.add_option("--bvh-width", a->bvh_width,
                      "children per BVH node: 2, 4 or 8 (default: the fastest on each backend)")
           ->check(CLI::IsMember({2, 4, 8}));
+      app.add_flag("--interleave", a->interleave,
+                   "with two backends: their timed frames alternate, frame by frame, in one "
+                   "loop (peak_mib is then the process's, with both held)");
       app.add_option("--obj-dir", a->obj_dir, "folder for the obj_<N> scenes' OBJ files");
       app.add_option("--against", a->against,
                      "a comparison program (build/bench/embree_bench): interleaved rounds, and the "

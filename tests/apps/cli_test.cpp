@@ -7,6 +7,8 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <map>
+#include <regex>
 #include <set>
 #include <string>
 #include <utility>
@@ -828,4 +830,48 @@ TEST_CASE("bench --against: interleaved rounds, and CPU over the comparator's fa
   }
   CHECK(read_file(dir + "/cost.png").rfind("\x89PNG", 0) == 0);
   CHECK(!std::filesystem::exists(dir + "/cost.png.tmp"));
+}
+
+TEST_CASE("bench --interleave: the backends' timed frames alternate, frame by frame") {
+  const std::string dir = fresh_folder(kWork, "bench_interleave");
+  const std::vector<std::string> args = {"bench", "demo",    "--backend", "all",      "--runs",
+                                         "3",     "--width", "32",        "--height", "24"};
+  std::vector<std::string> interleaved = args;
+  interleaved.push_back("--interleave");
+  Result r = run_twinray(interleaved, dir);
+  REQUIRE_MESSAGE(r.status == 0, r.err);
+  // Each step's frames in the order they ran: cpu then opencl, then the other way.
+  std::map<std::string, std::vector<double>> times;
+  std::vector<std::string> order;
+  const std::regex step(R"(demo float: step (\d+): (\w+) ([0-9.]+) ms (\w+) ([0-9.]+) ms)");
+  for (std::sregex_iterator it(r.err.begin(), r.err.end(), step), end; it != end; ++it) {
+    const std::smatch& m = *it;
+    CHECK(std::stoi(m[1]) == static_cast<int>(order.size()) / 2 + 1);
+    for (int k : {2, 4}) {
+      order.push_back(m[k]);
+      times[m[k]].push_back(std::stod(m[k + 1]));
+    }
+  }
+  CHECK(order == std::vector<std::string>{"cpu", "opencl", "opencl", "cpu", "cpu", "opencl"});
+  CHECK(contains(r.err, "demo float: opencl / cpu per step: median "));
+  // Both rows, each with the median of its own frames (printed to 0.1 ms).
+  for (const char* backend : {"cpu", "opencl"}) {
+    CAPTURE(std::string(backend));
+    const size_t at = r.out.find(std::string("\ndemo,") + backend + ",");
+    REQUIRE(at != std::string::npos);
+    std::vector<std::string> f =
+        csv_fields(r.out.substr(at + 1, r.out.find('\n', at + 1) - at - 1));
+    REQUIRE(f.size() == 14);
+    std::vector<double> t = times[backend];
+    REQUIRE(t.size() == 3);
+    std::sort(t.begin(), t.end());
+    CHECK(std::abs(std::stod(f[9]) - t[1]) <= 0.051);
+    CHECK(std::abs(std::stod(f[8]) - t[0]) <= 0.051);
+  }
+  // Without the flag the backends run one after the other: no steps.
+  r = run_twinray(args, dir);
+  REQUIRE_MESSAGE(r.status == 0, r.err);
+  CHECK_FALSE(contains(r.err, "step 1:"));
+  CHECK(contains(r.out, "\ndemo,cpu,"));
+  CHECK(contains(r.out, "\ndemo,opencl,"));
 }

@@ -17,6 +17,7 @@
 #include <fstream>
 #include <functional>
 #include <iostream>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -148,14 +149,31 @@ struct Config {
   int bvh = 0;
   // BVH width: 0 the backend's (RenderBackend::pack_options), else 2, 4 or 8.
   int bvh_width = 0;
+  // Several backends: their timed frames alternate in one loop (run_interleaved).
+  bool interleave = false;
   std::function<void(const std::string&)> note = [](const std::string& s) {
     std::cerr << s << "\n";
   };
 };
 
+// One backend made ready to time frames of a scene: packed, its scene set, warmed up.
 template <class T>
-Row run(const BenchScene<T>& b, twinray::Backend backend, const Config& config) {
+struct Session {
   Row row;
+  std::unique_ptr<twinray::RenderBackend<T>> renderer;
+  std::shared_ptr<const twinray::PackedScene<T>> scene;
+  twinray::RenderRequest<T> request;
+  // One image for every frame, as a frame loop (and the Embree program) keeps one: the
+  // timed frames neither allocate nor zero a framebuffer.
+  twinray::Image<T> image;
+  std::vector<double> times;  // the timed frames, in ms, in the order they ran
+};
+
+template <class T>
+std::unique_ptr<Session<T>> prepare(const BenchScene<T>& b, twinray::Backend backend,
+                                    const Config& config) {
+  auto session = std::make_unique<Session<T>>();
+  Row& row = session->row;
   row.scene = b.name;
   row.backend = backend == twinray::Backend::OpenCL ? "opencl" : "cpu";
   row.precision = twinray::device::Code<T>::name;
@@ -165,11 +183,10 @@ Row run(const BenchScene<T>& b, twinray::Backend backend, const Config& config) 
   twinray::RenderOptions options = b.options;
   options.backend = backend;
   options.spp = b.spp;
-  options.log = [&](const std::string& s) { config.note(s); };
+  options.log = config.note;
 
-  reset_peak();
-  std::unique_ptr<twinray::RenderBackend<T>> renderer = twinray::make_backend<T>(options);
-  twinray::PackOptions pack = renderer->pack_options();
+  session->renderer = twinray::make_backend<T>(options);
+  twinray::PackOptions pack = session->renderer->pack_options();
   pack.bvh = config.bvh > 0   ? twinray::BvhPolicy::Always
              : config.bvh < 0 ? twinray::BvhPolicy::Never
                               : twinray::BvhPolicy::Auto;
@@ -190,14 +207,13 @@ Row run(const BenchScene<T>& b, twinray::Backend backend, const Config& config) 
     config.note(b.name + " " + row.precision + buf);
   }
 
-  const twinray::RenderRequest<T> request{b.camera, b.scene.lights, options, {}};
-  renderer->set_scene(ps);
+  session->request = twinray::RenderRequest<T>{b.camera, b.scene.lights, options, {}};
+  session->scene = ps;
+  session->renderer->set_scene(ps);
   twinray::RenderInfo info;
-  // One image for every frame, as a frame loop (and the Embree program) keeps one: the
-  // timed frames neither allocate nor zero a framebuffer.
-  twinray::Image<T> image;
   auto w0 = std::chrono::steady_clock::now();
-  renderer->render_into(request, image, &info);  // warm-up (program build, scene upload)
+  // warm-up (program build, scene upload)
+  session->renderer->render_into(session->request, session->image, &info);
   double first_ms = ms_since(w0);
   if (backend == twinray::Backend::OpenCL) {
     char buf[256];
@@ -212,7 +228,7 @@ Row run(const BenchScene<T>& b, twinray::Backend backend, const Config& config) 
     // builds no program.
     for (int extra = 0; extra < 3 && info.build_ms > 0; ++extra) {
       w0 = std::chrono::steady_clock::now();
-      renderer->render_into(request, image, &info);
+      session->renderer->render_into(session->request, session->image, &info);
       if (info.build_ms > 0) {
         std::snprintf(buf, sizeof buf,
                       ": OpenCL program for kernel %s %s in %.1f ms; that frame %.1f ms in all",
@@ -222,20 +238,91 @@ Row run(const BenchScene<T>& b, twinray::Backend backend, const Config& config) 
       }
     }
   }
-  std::vector<double> times;
-  for (int i = 0; i < config.runs; ++i) {
-    auto r0 = std::chrono::steady_clock::now();
-    renderer->render_into(request, image, &info);
-    times.push_back(ms_since(r0));
-  }
+  return session;
+}
+
+// One timed frame.
+template <class T>
+double timed_frame(Session<T>& s) {
+  auto r0 = std::chrono::steady_clock::now();
+  s.renderer->render_into(s.request, s.image);
+  s.times.push_back(ms_since(r0));
+  return s.times.back();
+}
+
+// The row of a session whose frames have run.
+template <class T>
+Row finish(Session<T>& s) {
+  Row row = s.row;
   row.peak_mib = peak_mib();
+  std::vector<double> times = s.times;
   std::sort(times.begin(), times.end());
   row.min_ms = times.front();
   row.max_ms = times.back();
   row.median_ms = times[times.size() / 2];
-  row.rays = count_rays(*ps, twinray::pack_frame(ps->summary(), request));
+  row.rays = count_rays(*s.scene, twinray::pack_frame(s.scene->summary(), s.request));
   row.mrays_per_s = row.median_ms > 0 ? row.rays / (row.median_ms * 1e3) : 0;
   return row;
+}
+
+// One warm-up, then config.runs timed frames.
+template <class T>
+Row run(const BenchScene<T>& b, twinray::Backend backend, const Config& config) {
+  reset_peak();
+  std::unique_ptr<Session<T>> s = prepare(b, backend, config);
+  for (int i = 0; i < config.runs; ++i) timed_frame(*s);
+  return finish(*s);
+}
+
+// The backends' timed frames in one loop, frame by frame, so that whatever moves the
+// machine's speed meets both alike; the order within each step alternates (A B, B A, ...)
+// so that neither always runs right after the other. Each backend keeps its own packed
+// scene, as when it runs alone; peak_mib is the process's, with every backend held. A
+// note gives each step's frames in the order they ran and, for two backends, the second
+// over the first per step (median and range).
+template <class T>
+std::vector<Row> run_interleaved(const BenchScene<T>& b,
+                                 const std::vector<twinray::Backend>& backends,
+                                 const Config& config) {
+  reset_peak();
+  std::vector<std::unique_ptr<Session<T>>> sessions;
+  for (twinray::Backend backend : backends) sessions.push_back(prepare(b, backend, config));
+  const size_t n = sessions.size();
+  std::vector<double> ratios;
+  for (int i = 0; i < config.runs; ++i) {
+    std::string line =
+        b.name + " " + sessions[0]->row.precision + ": step " + std::to_string(i + 1) + ":";
+    for (size_t j = 0; j < n; ++j) {
+      Session<T>& s = *sessions[i % 2 == 0 ? j : n - 1 - j];
+      char buf[64];
+      std::snprintf(buf, sizeof buf, " %s %.1f ms", s.row.backend.c_str(), timed_frame(s));
+      line += buf;
+    }
+    config.note(line);
+    if (n == 2) ratios.push_back(sessions[1]->times.back() / sessions[0]->times.back());
+  }
+  if (!ratios.empty()) {
+    std::vector<double> sorted = ratios;
+    std::sort(sorted.begin(), sorted.end());
+    char buf[200];
+    std::snprintf(buf, sizeof buf, ": %s / %s per step: median %.3f (%.3f-%.3f)",
+                  sessions[1]->row.backend.c_str(), sessions[0]->row.backend.c_str(),
+                  sorted[sorted.size() / 2], sorted.front(), sorted.back());
+    config.note(b.name + " " + sessions[0]->row.precision + buf);
+  }
+  std::vector<Row> rows;
+  for (auto& s : sessions) rows.push_back(finish(*s));
+  return rows;
+}
+
+// Every backend on a scene: one after the other, or interleaved (config.interleave).
+template <class T>
+std::vector<Row> run_backends(const BenchScene<T>& b, const std::vector<twinray::Backend>& backends,
+                              const Config& config) {
+  if (config.interleave && backends.size() > 1) return run_interleaved(b, backends, config);
+  std::vector<Row> rows;
+  for (twinray::Backend backend : backends) rows.push_back(run(b, backend, config));
+  return rows;
 }
 
 }  // namespace twinray_bench
