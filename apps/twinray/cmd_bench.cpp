@@ -5,9 +5,10 @@
 //
 // With `--against PROGRAM` (build/bench/embree_bench, or any program that takes its options and
 // prints the same CSV), rounds of both are interleaved scene by scene, and stdout has the
-// ratios instead: per scene the medians over the rounds, and CPU / comparator taken within
-// each round (median, least, largest). `--plot FILE.png` draws the cost per ray against the
-// primitive count of the spheres_<N> and mesh_<N> scenes (gnuplot).
+// ratios instead: per scene the medians over the rounds, CPU / comparator taken within
+// each round (median, least, largest) and OpenCL / CPU taken within each round (median;
+// with --interleave, the round's median per step). `--plot FILE.png` draws the cost per ray against
+// the primitive count of the spheres_<N> and mesh_<N> scenes (gnuplot).
 #include <algorithm>
 #include <cstdio>
 #include <iostream>
@@ -173,6 +174,7 @@ int run_compare(const BenchArgs& a, const std::vector<std::string>& scenes,
   struct Sample {
     std::map<std::string, std::vector<double>> ms;  // system -> median ms, per round
     std::vector<double> cpu_over_other;
+    std::vector<double> opencl_over_cpu;  // per round: the round's ratio
     std::vector<double> cpu_build, other_build, cpu_build_over_other;  // per round
     long long rays = 0, primitives = 0;
     std::string other_backend;
@@ -189,7 +191,7 @@ int run_compare(const BenchArgs& a, const std::vector<std::string>& scenes,
       if (comparator_first) other = run_against(a, name);
       std::vector<twinray::Backend> order = backends;
       if (comparator_first) std::reverse(order.begin(), order.end());
-      double cpu = 0, cpu_build = 0;
+      double cpu = 0, cpu_build = 0, opencl = 0, opencl_per_step = 0;
       for (const twinray_bench::Row& row : twinray_bench::run_backends(b, order, config)) {
         std::cerr << "twinray: " << twinray_bench::csv_line(row) << "\n";
         std::string system = "twinray-" + row.backend;
@@ -197,12 +199,16 @@ int run_compare(const BenchArgs& a, const std::vector<std::string>& scenes,
         if (std::find(systems.begin(), systems.end(), system) == systems.end())
           systems.push_back(system);
         if (row.backend == "cpu") cpu = row.median_ms, cpu_build = row.build_ms;
+        if (row.backend == "opencl")
+          opencl = row.median_ms, opencl_per_step = row.over_cpu_per_step;
         s.rays = row.rays;
         s.primitives = row.primitives;
       }
       if (!comparator_first) other = run_against(a, name);
       s.ms["comparator"].push_back(other.median_ms);
       s.other_backend = other.backend;
+      if (cpu > 0 && opencl > 0)
+        s.opencl_over_cpu.push_back(opencl_per_step > 0 ? opencl_per_step : opencl / cpu);
       if (cpu > 0) {
         s.cpu_over_other.push_back(cpu / other.median_ms);
         s.cpu_build.push_back(cpu_build);
@@ -240,8 +246,8 @@ int run_compare(const BenchArgs& a, const std::vector<std::string>& scenes,
     std::cout << name << ',' << s.rays << ',' << field(cpu, "%.1f") << ',' << field(cl, "%.1f")
               << ',' << field(other, "%.1f") << ',' << s.other_backend << ','
               << field(report::median(s.cpu_over_other), "%.3f") << ',' << field(lo, "%.3f") << ','
-              << field(hi, "%.3f") << ',' << field(cpu > 0 && cl > 0 ? cl / cpu : 0.0, "%.3f")
-              << ',' << field(report::median(s.cpu_build), "%.1f") << ','
+              << field(hi, "%.3f") << ',' << field(report::median(s.opencl_over_cpu), "%.3f") << ','
+              << field(report::median(s.cpu_build), "%.1f") << ','
               << field(report::median(s.other_build), "%.1f") << ','
               << field(report::median(s.cpu_build_over_other), "%.3f") << std::endl;
     primitives[name] = s.primitives;

@@ -854,6 +854,11 @@ TEST_CASE("bench --interleave: the backends' timed frames alternate, frame by fr
   }
   CHECK(order == std::vector<std::string>{"cpu", "opencl", "opencl", "cpu", "cpu", "opencl"});
   CHECK(contains(r.err, "demo float: opencl / cpu per step: median "));
+  // The backends pack alike (BVH8): one packed scene, built once, read by both.
+  const std::string bvh_note = "demo float: BVH8 ";
+  CHECK(r.err.find(bvh_note) != std::string::npos);
+  CHECK(r.err.find(bvh_note) == r.err.rfind(bvh_note));
+  std::vector<std::string> builds;
   // Both rows, each with the median of its own frames (printed to 0.1 ms).
   for (const char* backend : {"cpu", "opencl"}) {
     CAPTURE(std::string(backend));
@@ -867,11 +872,27 @@ TEST_CASE("bench --interleave: the backends' timed frames alternate, frame by fr
     std::sort(t.begin(), t.end());
     CHECK(std::abs(std::stod(f[9]) - t[1]) <= 0.051);
     CHECK(std::abs(std::stod(f[8]) - t[0]) <= 0.051);
+    builds.push_back(f[7]);
   }
+  CHECK(builds[0] == builds[1]);
   // Without the flag the backends run one after the other: no steps.
   r = run_twinray(args, dir);
   REQUIRE_MESSAGE(r.status == 0, r.err);
   CHECK_FALSE(contains(r.err, "step 1:"));
   CHECK(contains(r.out, "\ndemo,cpu,"));
   CHECK(contains(r.out, "\ndemo,opencl,"));
+
+  // With --against, each round interleaves, and opencl_over_cpu is the median over the
+  // rounds of each round's median per step (one round here: that round's).
+  std::vector<std::string> against = interleaved;
+  against.insert(against.end(), {"--rounds", "1", "--against", fake_comparator(dir, "ok")});
+  r = run_twinray(against, dir);
+  REQUIRE_MESSAGE(r.status == 0, r.err);
+  const std::regex per_step(R"(demo float: opencl / cpu per step: median ([0-9.]+) )");
+  std::smatch m;
+  REQUIRE(std::regex_search(r.err, m, per_step));
+  const std::string row = r.out.substr(r.out.find("\ndemo,") + 1);
+  std::vector<std::string> f = csv_fields(row.substr(0, row.find('\n')));
+  REQUIRE(f.size() == 13);
+  CHECK(f[9] == m[1].str());
 }
