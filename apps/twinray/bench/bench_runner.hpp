@@ -174,8 +174,9 @@ struct Session {
 };
 
 // `alike`: a session whose packed scene this one reads if the backend packs the same way
-// (BVH policy and width), as a program that holds both backends would; the build is then
-// timed once, and its time goes to both rows.
+// (BVH policy and width), as a program that holds both backends would. The build is
+// timed all the same, the pack then dropped: each row's build_ms is its own backend's
+// pack_scene, whether or not it runs alone.
 template <class T>
 std::unique_ptr<Session<T>> prepare(const BenchScene<T>& b, twinray::Backend backend,
                                     const Config& config, const Session<T>* alike = nullptr) {
@@ -199,18 +200,15 @@ std::unique_ptr<Session<T>> prepare(const BenchScene<T>& b, twinray::Backend bac
                               : twinray::BvhPolicy::Auto;
   if (config.bvh_width > 0) pack.bvh_width = config.bvh_width;
   session->pack = pack;
-  std::shared_ptr<const twinray::PackedScene<T>> ps;
-  if (alike && alike->pack.bvh == pack.bvh && alike->pack.bvh_width == pack.bvh_width) {
-    ps = alike->scene;
-    row.build_ms = alike->row.build_ms;
-  } else {
-    auto t0 = std::chrono::steady_clock::now();
-    ps = twinray::share(twinray::pack_scene(b.scene, pack));
-    row.build_ms = ms_since(t0);
-  }
+  auto t0 = std::chrono::steady_clock::now();
+  auto ps = twinray::share(twinray::pack_scene(b.scene, pack));
+  row.build_ms = ms_since(t0);
+  const bool shares =
+      alike && alike->pack.bvh == pack.bvh && alike->pack.bvh_width == pack.bvh_width;
+  if (shares) ps = alike->scene;
   row.primitives =
       static_cast<long long>(ps->spheres.size() + ps->triangles.size() + ps->planes.size());
-  if (!ps->bvh_nodes.empty() && ps != (alike ? alike->scene : nullptr)) {
+  if (!ps->bvh_nodes.empty() && !shares) {
     twinray::bvh::Stats st = twinray::bvh::wide_stats(ps->bvh_nodes);
     char buf[200];
     std::snprintf(buf, sizeof buf,
@@ -290,9 +288,9 @@ Row run(const BenchScene<T>& b, twinray::Backend backend, const Config& config) 
 
 // The backends' timed frames in one loop, frame by frame, so that whatever moves the
 // machine's speed meets both alike; the order within each step alternates (A B, B A, ...)
-// so that neither always runs right after the other. Backends that pack alike share one
-// packed scene (prepare), so their frames read the same memory and neither finds the
-// caches full of another copy; peak_mib is the process's, with every backend held. A
+// so that neither always runs right after the other. Backends that pack alike render
+// from one packed scene (prepare), so their frames read the same memory and neither
+// finds the caches full of another copy; peak_mib is the process's, with every backend held. A
 // note gives each step's frames in the order they ran and, with the CPU backend and one
 // other, the other over the CPU backend per step (median and range; also the rows'
 // over_cpu_per_step).
