@@ -319,21 +319,19 @@ std::vector<Row> run_interleaved(const BenchScene<T>& b,
     config.note(line);
     if (paired) ratios.push_back(sessions[other]->times.back() / sessions[cpu]->times.back());
   }
+  double median_ratio = 0;
   if (!ratios.empty()) {
-    std::vector<double> sorted = ratios;
-    std::sort(sorted.begin(), sorted.end());
+    std::sort(ratios.begin(), ratios.end());
+    median_ratio = ratios[ratios.size() / 2];
     char buf[200];
     std::snprintf(buf, sizeof buf, ": %s / cpu per step: median %.3f (%.3f-%.3f)",
-                  sessions[other]->row.backend.c_str(), sorted[sorted.size() / 2], sorted.front(),
-                  sorted.back());
+                  sessions[other]->row.backend.c_str(), median_ratio, ratios.front(),
+                  ratios.back());
     config.note(b.name + " " + sessions[0]->row.precision + buf);
   }
   std::vector<Row> rows;
   for (auto& s : sessions) rows.push_back(finish(*s));
-  if (!ratios.empty()) {
-    std::sort(ratios.begin(), ratios.end());
-    rows[other].over_cpu_per_step = ratios[ratios.size() / 2];
-  }
+  if (paired) rows[other].over_cpu_per_step = median_ratio;
   return rows;
 }
 
