@@ -52,6 +52,14 @@ TR_FN real tr_dot(vec3 a, vec3 b) {
 TR_FN_INLINE vec3 tr_sub3(vec3 a, vec3 b) {
   return TR_VEC3(a.x - b.x, a.y - b.y, a.z - b.z);
 }
+/* a + b and v s, in components for the same reason: shading's per-hit loops
+ * (trace.h) vectorize a hit per SIMD lane over them. */
+TR_FN_INLINE vec3 tr_add3(vec3 a, vec3 b) {
+  return TR_VEC3(a.x + b.x, a.y + b.y, a.z + b.z);
+}
+TR_FN_INLINE vec3 tr_scale3(vec3 v, real s) {
+  return TR_VEC3(v.x * s, v.y * s, v.z * s);
+}
 
 /* Componentwise minimum and maximum. */
 TR_FN vec3 tr_min3(vec3 a, vec3 b) {
@@ -70,7 +78,7 @@ TR_FN real tr_length(vec3 v) {
 }
 
 TR_FN vec3 tr_normalize(vec3 v) {
-  return v * (TR_R(1.0) / tr_sqrt(tr_dot(v, v)));
+  return tr_scale3(v, TR_R(1.0) / tr_sqrt(tr_dot(v, v)));
 }
 
 TR_FN vec3 tr_abs3(vec3 v) {

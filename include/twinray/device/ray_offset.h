@@ -20,11 +20,11 @@ TR_FN_INLINE real tr_grow_away_from_zero(real x, real g) {
  * loses bits, are exact). */
 TR_FN vec3 tr_offset_ray_origin(vec3 p, vec3 perr, vec3 n, vec3 w) {
   real dist = tr_dot(tr_abs3(n), perr);
-  vec3 o = n * dist;
-  if (tr_dot(w, n) < TR_R(0.0)) o = -o;
-  vec3 g = (tr_abs3(p) + tr_abs3(o)) * (TR_R(4.0) * tr_unit_roundoff());
+  if (tr_dot(w, n) < TR_R(0.0)) dist = -dist;
+  vec3 o = tr_scale3(n, dist);
+  vec3 g = tr_scale3(tr_add3(tr_abs3(p), tr_abs3(o)), TR_R(4.0) * tr_unit_roundoff());
   o.x = tr_grow_away_from_zero(o.x, g.x);
   o.y = tr_grow_away_from_zero(o.y, g.y);
   o.z = tr_grow_away_from_zero(o.z, g.z);
-  return p + o;
+  return tr_add3(p, o);
 }

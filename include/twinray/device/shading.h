@@ -11,22 +11,21 @@
  * times its texture at the hit's uv where it has one (texture.h). Each term and the
  * shadow rays can be switched off (Features mask). */
 
-/* The shadow ray from the hit toward the light and the distance it must stay clear
- * for; 0 where there is none (the offset origin is at the light). It starts at the
- * hit's shadow origin (the hit point, or its lift off a smooth mesh:
- * intersect_triangle.h), offset along the geometric normal by the origin's error
- * bound. */
-TR_FN int tr_shadow_ray(const TrHit* hit, vec3 light_pos, TrRay* shadow, real* tmax) {
-  shadow->o =
-      tr_offset_ray_origin(hit->shadow_p, hit->shadow_perr, hit->n, light_pos - hit->shadow_p);
-  vec3 to_light = light_pos - shadow->o;
+/* The shadow ray toward the light from a hit's shadow origin p (the hit point, or its
+ * lift off a smooth mesh: intersect_triangle.h), whose error is bounded by perr and
+ * whose geometric normal is ng, and the distance it must stay clear for: p offset
+ * along ng by the error bound. Returns 0 where there is none (the offset origin is at
+ * the light); *shadow and *tmax are set either way, so that a loop over hits
+ * (trace.h) needs no branch here and runs a hit per SIMD lane. */
+TR_FN int tr_shadow_ray(vec3 p, vec3 perr, vec3 ng, vec3 light_pos, TrRay* shadow, real* tmax) {
+  shadow->o = tr_offset_ray_origin(p, perr, ng, tr_sub3(light_pos, p));
+  vec3 to_light = tr_sub3(light_pos, shadow->o);
   real dist = tr_length(to_light);
-  if (!(dist > TR_R(0.0))) return 0;
-  shadow->d = to_light * (TR_R(1.0) / dist);
+  shadow->d = tr_scale3(to_light, TR_R(1.0) / dist);
   /* Stop just short of the light (1 - 2^-13 of the way), so geometry the light sits
    * on does not shadow it: a relative margin, the same at every scale. */
   *tmax = dist * TR_R(0.9998779296875);
-  return 1;
+  return dist > TR_R(0.0);
 }
 
 /* The normal the hit is shaded with: the shading normal, turned to the side of the
@@ -37,21 +36,22 @@ TR_FN vec3 tr_facing_normal(const TrSceneRef* s, const TrHit* hit, vec3 ray_dir)
   return n;
 }
 
-/* Light i as seen from the hit with facing normal n. */
-TR_FN TrLightView tr_light_view(const TrSceneRef* s, const TrHit* hit, vec3 n, int i) {
+/* Light i as seen from the hit point p with facing normal n. Every field is set
+ * whichever terms are lit, with no branch: a loop over hits (trace.h) runs a hit per
+ * SIMD lane. */
+TR_FN TrLightView tr_light_view(const TrSceneRef* s, vec3 p, vec3 n, int i) {
   TR_GLOBAL const TrLight* light = &s->lights[i];
   TrLightView lv;
   lv.pos = TR_VEC3(light->px, light->py, light->pz);
-  lv.lit = TR_LIGHT_NONE;
-  vec3 to_light = lv.pos - hit->p;
+  vec3 to_light = tr_sub3(lv.pos, p);
   real dist2 = tr_dot(to_light, to_light);
-  if (!(dist2 > TR_R(0.0))) return lv;
-  lv.irradiance = TR_VEC3(light->r, light->g, light->b) * (TR_R(1.0) / dist2);
-  lv.lit = TR_LIGHT_AMBIENT;
-  if (!tr_use(s, TR_F_DIFFUSE) && !tr_use(s, TR_F_SPECULAR)) return lv;
-  lv.l = to_light * (TR_R(1.0) / tr_sqrt(dist2));
+  lv.irradiance = tr_scale3(TR_VEC3(light->r, light->g, light->b), TR_R(1.0) / dist2);
+  lv.l = tr_scale3(to_light, TR_R(1.0) / tr_sqrt(dist2));
   lv.n_dot_l = tr_dot(n, lv.l);
-  if (lv.n_dot_l > TR_R(0.0)) lv.lit = TR_LIGHT_ALL; /* else: behind the surface */
+  int directional = tr_use(s, TR_F_DIFFUSE) || tr_use(s, TR_F_SPECULAR);
+  lv.lit = !(dist2 > TR_R(0.0))                    ? TR_LIGHT_NONE
+           : directional && lv.n_dot_l > TR_R(0.0) ? TR_LIGHT_ALL /* else: behind it */
+                                                   : TR_LIGHT_AMBIENT;
   return lv;
 }
 
@@ -68,11 +68,13 @@ TR_FN TrSurface tr_surface(const TrSceneRef* s, const TrHit* hit, vec3 ray_dir) 
 }
 
 /* Whether the light seen as lv asks for a shadow ray (then *shadow and *tmax say what
- * to trace): shadows on, the light in front of the surface, and a term it would add. */
-TR_FN int tr_light_needs_shadow_ray(const TrSceneRef* s, const TrHit* hit, TrLightView lv,
+ * to trace): shadows on, the light in front of the surface, and a term it would add.
+ * The ray starts from shadow origin p with error bound perr on a surface of geometric
+ * normal ng (tr_shadow_ray). */
+TR_FN int tr_light_needs_shadow_ray(const TrSceneRef* s, TrLightView lv, vec3 p, vec3 perr, vec3 ng,
                                     TrRay* shadow, real* tmax) {
-  return tr_use(s, TR_F_SHADOWS) && lv.lit == TR_LIGHT_ALL &&
-         tr_shadow_ray(hit, lv.pos, shadow, tmax);
+  int traced = tr_shadow_ray(p, perr, ng, lv.pos, shadow, tmax); /* no branch: as above */
+  return tr_use(s, TR_F_SHADOWS) & (lv.lit == TR_LIGHT_ALL) & traced;
 }
 
 /* sum plus the light's terms at the hit up to the specular power (surface sf, incoming
@@ -155,11 +157,12 @@ TR_FN vec3 tr_shade(const TrSceneRef* s, const TrHit* hit, vec3 ray_dir) {
   TrSurface sf = tr_surface(s, hit, ray_dir);
   vec3 sum = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
   for (int i = 0; i < s->params->n_lights; ++i) {
-    TrLightView lv = tr_light_view(s, hit, sf.n, i);
+    TrLightView lv = tr_light_view(s, hit->p, sf.n, i);
     TrRay shadow;
     real tmax;
     int blocked =
-        tr_light_needs_shadow_ray(s, hit, lv, &shadow, &tmax) && tr_any_hit(s, &shadow, tmax);
+        tr_light_needs_shadow_ray(s, lv, hit->shadow_p, hit->shadow_perr, hit->n, &shadow, &tmax) &&
+        tr_any_hit(s, &shadow, tmax);
     sum = tr_add_light(s, hit, sf, ray_dir, lv, blocked, sum);
   }
   return sum;

@@ -143,38 +143,103 @@ TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, int x0, int y
       if (m == 0) break;
       pk->n = m;
       tr_closest_hit_packet(s, pk, b->hit, b->found);
+      /* The rays that hit, in order: f of them, ray b->found_ray[q] the q-th, and what
+       * the light loop reads of each hit in one array per component. */
+      int f = 0;
       for (int r = 0; r < m; ++r) {
         b->shaded[r] = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
-        if (b->found[r]) b->surface[r] = tr_surface(s, &b->hit[r], b->path[b->slot[r]].ray.d);
+        if (!b->found[r]) continue;
+        const TrHit* hit = &b->hit[r];
+        vec3 d = b->path[b->slot[r]].ray.d;
+        TrSurface sf = tr_surface(s, hit, d);
+        b->surface[r] = sf;
+        b->found_ray[f] = r;
+        b->hit_px[f] = hit->p.x;
+        b->hit_py[f] = hit->p.y;
+        b->hit_pz[f] = hit->p.z;
+        b->hit_sx[f] = hit->shadow_p.x;
+        b->hit_sy[f] = hit->shadow_p.y;
+        b->hit_sz[f] = hit->shadow_p.z;
+        b->hit_ex[f] = hit->shadow_perr.x;
+        b->hit_ey[f] = hit->shadow_perr.y;
+        b->hit_ez[f] = hit->shadow_perr.z;
+        b->hit_gx[f] = hit->n.x;
+        b->hit_gy[f] = hit->n.y;
+        b->hit_gz[f] = hit->n.z;
+        b->hit_nx[f] = sf.n.x;
+        b->hit_ny[f] = sf.n.y;
+        b->hit_nz[f++] = sf.n.z;
       }
-      for (int light = 0; light < p->n_lights; ++light) {
+      for (int light = 0; light < p->n_lights && f > 0; ++light) {
+        /* Every hit's view of the light and shadow ray, a hit per SIMD lane; then the
+         * shadow rays asked for, moved to the front of the packet's arrays (never
+         * backwards: k <= q). */
+        TR_INDEPENDENT_LOOP
+        for (int q = 0; q < f; ++q) {
+          TrLightView lv = tr_light_view(s, TR_VEC3(b->hit_px[q], b->hit_py[q], b->hit_pz[q]),
+                                         TR_VEC3(b->hit_nx[q], b->hit_ny[q], b->hit_nz[q]), light);
+          TrRay shadow;
+          real tmax;
+          b->shadow_traced[q] = tr_light_needs_shadow_ray(
+              s, lv, TR_VEC3(b->hit_sx[q], b->hit_sy[q], b->hit_sz[q]),
+              TR_VEC3(b->hit_ex[q], b->hit_ey[q], b->hit_ez[q]),
+              TR_VEC3(b->hit_gx[q], b->hit_gy[q], b->hit_gz[q]), &shadow, &tmax);
+          b->light_r[q] = lv.irradiance.x;
+          b->light_g[q] = lv.irradiance.y;
+          b->light_b[q] = lv.irradiance.z;
+          b->light_lx[q] = lv.l.x;
+          b->light_ly[q] = lv.l.y;
+          b->light_lz[q] = lv.l.z;
+          b->light_n_dot_l[q] = lv.n_dot_l;
+          b->light_lit[q] = lv.lit;
+          pk->ox[q] = shadow.o.x;
+          pk->oy[q] = shadow.o.y;
+          pk->oz[q] = shadow.o.z;
+          pk->dx[q] = shadow.d.x;
+          pk->dy[q] = shadow.d.y;
+          pk->dz[q] = shadow.d.z;
+          pk->t[q] = tmax;
+          b->blocked[q] = 0;
+        }
         int k = 0;
-        for (int r = 0; r < m; ++r) {
-          b->blocked[r] = 0;
-          if (!b->found[r]) continue;
-          b->light[r] = tr_light_view(s, &b->hit[r], b->surface[r].n, light);
-          if (tr_light_needs_shadow_ray(s, &b->hit[r], b->light[r], &pk->ray[k], &pk->t[k]))
-            b->lane[k++] = r;
+        for (int q = 0; q < f; ++q) {
+          if (!b->shadow_traced[q]) continue;
+          pk->ray[k].o = TR_VEC3(pk->ox[q], pk->oy[q], pk->oz[q]);
+          pk->ray[k].d = TR_VEC3(pk->dx[q], pk->dy[q], pk->dz[q]);
+          pk->t[k] = pk->t[q];
+          b->lane[k++] = q;
         }
         if (k > 0) {
           pk->n = k;
           tr_any_hit_packet(s, pk, b->lane_blocked);
-          for (int q = 0; q < k; ++q) b->blocked[b->lane[q]] = b->lane_blocked[q];
+          for (int j = 0; j < k; ++j) b->blocked[b->lane[j]] = b->lane_blocked[j];
         }
         /* tr_add_light, hit by hit, with the specular powers of all hits between its
          * two halves. */
+        TR_GLOBAL const TrLight* lp = &s->lights[light];
+        TrLightView lv;
+        lv.pos = TR_VEC3(lp->px, lp->py, lp->pz);
         for (int r = 0; r < m; ++r) {
           b->specular[r] = 0;
           b->n_dot_h[r] = TR_R(0.0);
-          if (!b->found[r]) continue;
-          b->shaded[r] = tr_add_light_before_power(
-              s, &b->hit[r], b->surface[r], b->path[b->slot[r]].ray.d, b->light[r], b->blocked[r],
-              b->shaded[r], &b->n_dot_h[r], &b->specular[r]);
+        }
+        for (int q = 0; q < f; ++q) {
+          int r = b->found_ray[q];
+          lv.irradiance = TR_VEC3(b->light_r[q], b->light_g[q], b->light_b[q]);
+          lv.l = TR_VEC3(b->light_lx[q], b->light_ly[q], b->light_lz[q]);
+          lv.n_dot_l = b->light_n_dot_l[q];
+          lv.lit = b->light_lit[q];
+          b->shaded[r] = tr_add_light_before_power(s, &b->hit[r], b->surface[r],
+                                                   b->path[b->slot[r]].ray.d, lv, b->blocked[q],
+                                                   b->shaded[r], &b->n_dot_h[r], &b->specular[r]);
         }
         tr_specular_powers(s, b->hit, b->specular, b->n_dot_h, m, b->power);
-        for (int r = 0; r < m; ++r)
-          if (b->specular[r])
-            b->shaded[r] = tr_add_specular(s, &b->hit[r], b->light[r], b->power[r], b->shaded[r]);
+        for (int q = 0; q < f; ++q) {
+          int r = b->found_ray[q];
+          if (!b->specular[r]) continue;
+          lv.irradiance = TR_VEC3(b->light_r[q], b->light_g[q], b->light_b[q]);
+          b->shaded[r] = tr_add_specular(s, &b->hit[r], lv, b->power[r], b->shaded[r]);
+        }
       }
       for (int r = 0; r < m; ++r)
         tr_path_step(s, &b->path[b->slot[r]], b->found[r], &b->hit[r], b->shaded[r]);

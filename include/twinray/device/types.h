@@ -245,7 +245,24 @@ typedef struct TrBlockScratch {
   TrHit hit[TR_PACKET_MAX];
   TrSurface surface[TR_PACKET_MAX];
   vec3 shaded[TR_PACKET_MAX];
-  TrLightView light[TR_PACKET_MAX];
+  /* The segment's hits in ray order, the q-th from ray found_ray[q]: what the light
+   * loop reads of each, one array per component and set once a segment (the hit point,
+   * the shadow origin and its error bound, the geometric and the facing normal); one
+   * light as each sees it (TrLightView's fields but the light's position); whether its
+   * shadow ray toward that light is traced (the ray is made in the packet's ox .. dz
+   * and t at index q) and blocked (blocked[q]). The loop that makes them runs a hit
+   * per SIMD lane over contiguous loads: from the hit records, each component was a
+   * gather, and a lane per ray, hit or not, did the misses' work too. */
+  TR_ALIGNED(TR_LINE_BYTES) real hit_px[TR_PACKET_MAX], hit_py[TR_PACKET_MAX];
+  real hit_pz[TR_PACKET_MAX], hit_sx[TR_PACKET_MAX], hit_sy[TR_PACKET_MAX];
+  real hit_sz[TR_PACKET_MAX], hit_ex[TR_PACKET_MAX], hit_ey[TR_PACKET_MAX];
+  real hit_ez[TR_PACKET_MAX], hit_gx[TR_PACKET_MAX], hit_gy[TR_PACKET_MAX];
+  real hit_gz[TR_PACKET_MAX], hit_nx[TR_PACKET_MAX], hit_ny[TR_PACKET_MAX];
+  real hit_nz[TR_PACKET_MAX];
+  real light_r[TR_PACKET_MAX], light_g[TR_PACKET_MAX], light_b[TR_PACKET_MAX];
+  real light_lx[TR_PACKET_MAX], light_ly[TR_PACKET_MAX], light_lz[TR_PACKET_MAX];
+  real light_n_dot_l[TR_PACKET_MAX];
+  int light_lit[TR_PACKET_MAX], shadow_traced[TR_PACKET_MAX], found_ray[TR_PACKET_MAX];
   int found[TR_PACKET_MAX], slot[TR_PACKET_MAX], lane[TR_PACKET_MAX];
   int lane_blocked[TR_PACKET_MAX], blocked[TR_PACKET_MAX];
 } TrBlockScratch;
