@@ -134,7 +134,8 @@ constexpr bool lane_arrays_on_lines() {
          offsetof(Packet, fx) % TR_LINE_BYTES == 0 && offsetof(Packet, t) % TR_LINE_BYTES == 0 &&
          offsetof(Packet, prim) % TR_LINE_BYTES == 0 &&
          offsetof(Scratch, specular) % TR_LINE_BYTES == 0 &&
-         offsetof(Scratch, n_dot_h) % TR_LINE_BYTES == 0;
+         offsetof(Scratch, n_dot_h) % TR_LINE_BYTES == 0 &&
+         offsetof(Scratch, hit_p) % TR_LINE_BYTES == 0;
 }
 static_assert(lane_arrays_on_lines<f32::TrRayPacket, f32::TrBlockScratch>() &&
                   lane_arrays_on_lines<f64::TrRayPacket, f64::TrBlockScratch>() &&

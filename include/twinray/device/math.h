@@ -61,6 +61,16 @@ TR_FN_INLINE vec3 tr_scale3(vec3 v, real s) {
   return TR_VEC3(v.x * s, v.y * s, v.z * s);
 }
 
+/* Lane i of v, and lane i of v set to a. */
+TR_FN_INLINE vec3 tr_lane3(const TrVec3Lanes* v, int i) {
+  return TR_VEC3(v->x[i], v->y[i], v->z[i]);
+}
+TR_FN_INLINE void tr_set_lane3(TrVec3Lanes* v, int i, vec3 a) {
+  v->x[i] = a.x;
+  v->y[i] = a.y;
+  v->z[i] = a.z;
+}
+
 /* Componentwise minimum and maximum. */
 TR_FN vec3 tr_min3(vec3 a, vec3 b) {
   return TR_VEC3(tr_min(a.x, b.x), tr_min(a.y, b.y), tr_min(a.z, b.z));

@@ -154,21 +154,11 @@ TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, int x0, int y
         TrSurface sf = tr_surface(s, hit, d);
         b->surface[r] = sf;
         b->found_ray[f] = r;
-        b->hit_px[f] = hit->p.x;
-        b->hit_py[f] = hit->p.y;
-        b->hit_pz[f] = hit->p.z;
-        b->hit_sx[f] = hit->shadow_p.x;
-        b->hit_sy[f] = hit->shadow_p.y;
-        b->hit_sz[f] = hit->shadow_p.z;
-        b->hit_ex[f] = hit->shadow_perr.x;
-        b->hit_ey[f] = hit->shadow_perr.y;
-        b->hit_ez[f] = hit->shadow_perr.z;
-        b->hit_gx[f] = hit->n.x;
-        b->hit_gy[f] = hit->n.y;
-        b->hit_gz[f] = hit->n.z;
-        b->hit_nx[f] = sf.n.x;
-        b->hit_ny[f] = sf.n.y;
-        b->hit_nz[f++] = sf.n.z;
+        tr_set_lane3(&b->hit_p, f, hit->p);
+        tr_set_lane3(&b->hit_shadow_p, f, hit->shadow_p);
+        tr_set_lane3(&b->hit_shadow_perr, f, hit->shadow_perr);
+        tr_set_lane3(&b->hit_n, f, hit->n);
+        tr_set_lane3(&b->hit_facing_n, f++, sf.n);
       }
       for (int light = 0; light < p->n_lights && f > 0; ++light) {
         /* Every hit's view of the light and shadow ray, a hit per SIMD lane (frames
@@ -177,36 +167,25 @@ TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, int x0, int y
          * backwards: k <= q). */
         TR_INDEPENDENT_LOOP
         for (int q = 0; q < f; ++q) {
-          TrLightView lv = tr_light_view(s, TR_VEC3(b->hit_px[q], b->hit_py[q], b->hit_pz[q]),
-                                         TR_VEC3(b->hit_nx[q], b->hit_ny[q], b->hit_nz[q]), light);
+          TrLightView lv =
+              tr_light_view(s, tr_lane3(&b->hit_p, q), tr_lane3(&b->hit_facing_n, q), light);
           TrRay shadow;
           real tmax;
-          b->shadow_traced[q] = tr_light_needs_shadow_ray(
-              s, lv, TR_VEC3(b->hit_sx[q], b->hit_sy[q], b->hit_sz[q]),
-              TR_VEC3(b->hit_ex[q], b->hit_ey[q], b->hit_ez[q]),
-              TR_VEC3(b->hit_gx[q], b->hit_gy[q], b->hit_gz[q]), &shadow, &tmax);
-          b->light_r[q] = lv.irradiance.x;
-          b->light_g[q] = lv.irradiance.y;
-          b->light_b[q] = lv.irradiance.z;
-          b->light_lx[q] = lv.l.x;
-          b->light_ly[q] = lv.l.y;
-          b->light_lz[q] = lv.l.z;
+          b->shadow_traced[q] = tr_light_needs_shadow_ray(s, lv, tr_lane3(&b->hit_shadow_p, q),
+                                                          tr_lane3(&b->hit_shadow_perr, q),
+                                                          tr_lane3(&b->hit_n, q), &shadow, &tmax);
+          tr_set_lane3(&b->light_irradiance, q, lv.irradiance);
+          tr_set_lane3(&b->light_l, q, lv.l);
           b->light_n_dot_l[q] = lv.n_dot_l;
           b->light_lit[q] = lv.lit;
-          pk->ox[q] = shadow.o.x;
-          pk->oy[q] = shadow.o.y;
-          pk->oz[q] = shadow.o.z;
-          pk->dx[q] = shadow.d.x;
-          pk->dy[q] = shadow.d.y;
-          pk->dz[q] = shadow.d.z;
+          tr_packet_set_ray(pk, q, shadow);
           pk->t[q] = tmax;
           b->blocked[q] = 0;
         }
         int k = 0;
         for (int q = 0; q < f; ++q) {
           if (!b->shadow_traced[q]) continue;
-          pk->ray[k].o = TR_VEC3(pk->ox[q], pk->oy[q], pk->oz[q]);
-          pk->ray[k].d = TR_VEC3(pk->dx[q], pk->dy[q], pk->dz[q]);
+          pk->ray[k] = tr_packet_ray(pk, q);
           pk->t[k] = pk->t[q];
           b->lane[k++] = q;
         }
@@ -226,8 +205,8 @@ TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, int x0, int y
         }
         for (int q = 0; q < f; ++q) {
           int r = b->found_ray[q];
-          lv.irradiance = TR_VEC3(b->light_r[q], b->light_g[q], b->light_b[q]);
-          lv.l = TR_VEC3(b->light_lx[q], b->light_ly[q], b->light_lz[q]);
+          lv.irradiance = tr_lane3(&b->light_irradiance, q);
+          lv.l = tr_lane3(&b->light_l, q);
           lv.n_dot_l = b->light_n_dot_l[q];
           lv.lit = b->light_lit[q];
           b->shaded[r] = tr_add_light_before_power(s, &b->hit[r], b->surface[r],
@@ -238,7 +217,7 @@ TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, int x0, int y
         for (int q = 0; q < f; ++q) {
           int r = b->found_ray[q];
           if (!b->specular[r]) continue;
-          lv.irradiance = TR_VEC3(b->light_r[q], b->light_g[q], b->light_b[q]);
+          lv.irradiance = tr_lane3(&b->light_irradiance, q);
           b->shaded[r] = tr_add_specular(s, &b->hit[r], lv, b->power[r], b->shaded[r]);
         }
       }

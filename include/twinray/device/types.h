@@ -231,6 +231,12 @@ typedef struct TrPath {
   int segments_left;
 } TrPath;
 
+/* A vec3 for each of a packet's rays or hits, one array per component, so that a loop
+ * over them runs one per SIMD lane (tr_lane3, tr_set_lane3: math.h). */
+typedef struct TrVec3Lanes {
+  real x[TR_PACKET_MAX], y[TR_PACKET_MAX], z[TR_PACKET_MAX];
+} TrVec3Lanes;
+
 /* Working memory of tr_render_block (trace.h): a block's paths; one segment's hits,
  * their surfaces and shaded colors so far; one light as each hit sees it, and which
  * hits' shadow rays toward it went into the packet (lane) and are blocked. */
@@ -253,14 +259,9 @@ typedef struct TrBlockScratch {
    * and t at index q) and blocked (blocked[q]). The loop that makes them runs a hit
    * per SIMD lane over contiguous loads: from the hit records, each component was a
    * gather, and a lane per ray, hit or not, did the misses' work too. */
-  TR_ALIGNED(TR_LINE_BYTES) real hit_px[TR_PACKET_MAX], hit_py[TR_PACKET_MAX];
-  real hit_pz[TR_PACKET_MAX], hit_sx[TR_PACKET_MAX], hit_sy[TR_PACKET_MAX];
-  real hit_sz[TR_PACKET_MAX], hit_ex[TR_PACKET_MAX], hit_ey[TR_PACKET_MAX];
-  real hit_ez[TR_PACKET_MAX], hit_gx[TR_PACKET_MAX], hit_gy[TR_PACKET_MAX];
-  real hit_gz[TR_PACKET_MAX], hit_nx[TR_PACKET_MAX], hit_ny[TR_PACKET_MAX];
-  real hit_nz[TR_PACKET_MAX];
-  real light_r[TR_PACKET_MAX], light_g[TR_PACKET_MAX], light_b[TR_PACKET_MAX];
-  real light_lx[TR_PACKET_MAX], light_ly[TR_PACKET_MAX], light_lz[TR_PACKET_MAX];
+  TR_ALIGNED(TR_LINE_BYTES) TrVec3Lanes hit_p;
+  TrVec3Lanes hit_shadow_p, hit_shadow_perr, hit_n, hit_facing_n;
+  TrVec3Lanes light_irradiance, light_l;
   real light_n_dot_l[TR_PACKET_MAX];
   int light_lit[TR_PACKET_MAX], shadow_traced[TR_PACKET_MAX], found_ray[TR_PACKET_MAX];
   int found[TR_PACKET_MAX], slot[TR_PACKET_MAX], lane[TR_PACKET_MAX];
