@@ -20,6 +20,7 @@
 #include <memory>
 #include <random>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include <twinray/twinray.hpp>
@@ -236,6 +237,91 @@ void check_shadow_packets(int n_spheres) {
   CHECK(answers[1] > 0);
 }
 
+// tr_packet_hits_boxes's `ahead` bit, which lets the lanes skip the triangle test's
+// straddle bound (device/intersect_triangle.h), is set only where that bound could reject
+// nothing: for every ray of the packet, each vertex of each triangle in the leaf lies at
+// a positive ray-space depth as tr_triangle_hit_at computes it (the vertex's offset from
+// the origin on the ray's dominant axis, times that axis's reciprocal). Checked at every
+// node of the tree for camera packets, beams of nearly parallel rays, and shadow packets
+// that leave a triangle of the folded grid (whose own leaf straddles their origins).
+template <class T>
+void check_leaves_ahead() {
+  auto scene = bvh_test::random_scene<T>(0, 400, 9u);
+  scene.add(bvh_test::folded_grid<T>(24, 2));
+  const auto ps = packed(scene, 8);
+  twinray::RenderOptions options;
+  const auto frame =
+      twinray::pack_frame(ps.summary(), {bvh_test::test_camera<T>(8, 8), {}, options});
+  const auto ref = frame.ref(ps);
+  const int n_spheres = ref.params->n_spheres, n_nodes = ref.params->n_bvh_nodes;
+  auto scratch = std::make_unique<typename Code<T>::BlockScratch>();
+  auto& pk = scratch->packet;
+  std::mt19937 rng(31u);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const vec3<T> light(T(-2), T(-4), T(2));
+  int ahead_leaves = 0, straddled_leaves = 0, packets = 0;
+  for (int trial = 0; trial < 36; ++trial) {
+    std::vector<typename Code<T>::Ray> rays;
+    if (trial % 3 < 2) {
+      rays = test_rays<T>(trial % 3, TR_PACKET_MAX, rng);
+    } else {  // from points inside one triangle of the grid toward the light
+      const auto& mesh = std::get<twinray::Mesh<T>>(scene.objects.back());
+      const auto& f = mesh.triangles[rng() % mesh.triangles.size()];
+      const vec3<T> a = mesh.vertices[static_cast<size_t>(f[0])],
+                    b = mesh.vertices[static_cast<size_t>(f[1])],
+                    c = mesh.vertices[static_cast<size_t>(f[2])];
+      for (int r = 0; r < TR_PACKET_MAX; ++r) {
+        const T wa = T(0.1 + 0.8 * u(rng)), wb = T((1 - wa) * u(rng));
+        const vec3<T> o = a + wb * (b - a) + (T(1) - wa - wb) * (c - a);
+        rays.push_back(ray<T>(o, light - o));
+      }
+    }
+    pk.n = static_cast<int>(rays.size());
+    for (int r = 0; r < pk.n; ++r) {
+      pk.ray[r] = rays[static_cast<size_t>(r)];
+      pk.t[r] = T(INFINITY);
+      pk.prim[r] = -1;
+    }
+    if (!K<T>::tr_packet_begin(&pk)) continue;  // the masked walk takes coherent packets
+    ++packets;
+    for (int index = 0; index < n_nodes; ++index) {
+      const T* boxes = K<T>::tr_bvh_node(&ref, index, 8);
+      const int* first = K<T>::tr_bvh_node_links(boxes, 8);
+      const int* count = first + 8;
+      T t_entry[8];
+      unsigned ahead = 0u;
+      K<T>::tr_packet_hits_boxes(boxes, &pk, T(INFINITY), 8, t_entry, &ahead);
+      for (int k = 0; k < 8; ++k) {
+        if (count[k] <= 0) continue;  // an inner child or an empty slot
+        bool positive = true;
+        for (int i = first[k]; i < first[k] + count[k]; ++i) {
+          const auto* tri = &ref.triangles[K<T>::tr_bvh_prim(&ref, i) - n_spheres];
+          for (const vec3<T> p :
+               {K<T>::tr_triangle_p0(tri), K<T>::tr_triangle_p1(tri), K<T>::tr_triangle_p2(tri)})
+            for (int r = 0; r < pk.n; ++r) {
+              const int kz = pk.tri_kz[r];
+              const vec3<T> o(pk.ox[r], pk.oy[r], pk.oz[r]);
+              const T depth = pk.tri_sz[r] * (p[kz] - o[kz]);
+              positive = positive && depth > T(0);
+            }
+        }
+        CAPTURE(trial);
+        CAPTURE(index);
+        CAPTURE(k);
+        if ((ahead >> k) & 1u) {
+          CHECK(positive);
+          ++ahead_leaves;
+        } else if (!positive) {
+          ++straddled_leaves;
+        }
+      }
+    }
+  }
+  CHECK(packets >= 20);
+  CHECK(ahead_leaves > 0);
+  CHECK(straddled_leaves > 0);
+}
+
 template <class T>
 twinray::Image<T> per_pixel(const twinray::PackedScene<T>& ps,
                             const twinray::RenderRequest<T>& request) {
@@ -329,4 +415,9 @@ TEST_CASE_TEMPLATE("shadow packets give each ray its own answer, in sparse and d
                    float, double) {
   check_shadow_packets<T>(3000);
   check_shadow_packets<T>(524289);
+}
+
+TEST_CASE_TEMPLATE("a leaf marked ahead of a packet lies ahead of each of its rays", T, float,
+                   double) {
+  check_leaves_ahead<T>();
 }

@@ -189,13 +189,19 @@ TR_FN_INLINE real tr_interval_mul_hi(real x_lo, real x_hi, real y_lo, real y_hi)
 
 /* The packet's test of one wide node's W boxes: bit k set unless no ray of the packet
  * can enter child k before tmax_grown (the greatest of the rays' grown nearest hits);
- * t_entry[k] a lower bound on where any of them enters it. */
+ * t_entry[k] a lower bound on where any of them enters it. Bit k of *ahead is set where
+ * child k's box lies ahead of every ray's origin on all three axes: each near slab
+ * distance is > 0 for the whole packet. Then, for any point p in the box and any axis,
+ * a ray's rounded depth fl(fl(p - o) i) (i its reciprocal direction on that axis) is
+ * > 0 too: p lies beyond the near plane, and rounding is monotonic. That depth is
+ * tr_triangle_hit_at's az, bz, cz (its sz is the same reciprocal), so the triangles of
+ * such a leaf need no straddle bound. */
 TR_FN_INLINE unsigned tr_packet_hits_boxes(TR_GLOBAL const real* boxes, const TrRayPacket* pk,
-                                           real tmax_grown, int W, real* t_entry) {
+                                           real tmax_grown, int W, real* t_entry, unsigned* ahead) {
   TrBoxPlanes p = tr_box_planes(boxes, pk->rows, W);
   vec3 o_lo = pk->o_lo, o_hi = pk->o_hi, i_lo = pk->i_lo, i_hi = pk->i_hi;
   vec3 f_lo = pk->f_lo, f_hi = pk->f_hi;
-  unsigned mask = 0u;
+  unsigned mask = 0u, in_front = 0u;
   TR_SIMD_LOOP
   for (int k = 0; k < W; ++k) {
     real nx = tr_interval_mul_lo(p.near_x[k] - o_hi.x, p.near_x[k] - o_lo.x, i_lo.x, i_hi.x);
@@ -205,7 +211,9 @@ TR_FN_INLINE unsigned tr_packet_hits_boxes(TR_GLOBAL const real* boxes, const Tr
     real fy = tr_interval_mul_hi(p.far_y[k] - o_hi.y, p.far_y[k] - o_lo.y, f_lo.y, f_hi.y);
     real fz = tr_interval_mul_hi(p.far_z[k] - o_hi.z, p.far_z[k] - o_lo.z, f_lo.z, f_hi.z);
     mask |= (unsigned)tr_slab_enters(nx, ny, nz, fx, fy, fz, tmax_grown, &t_entry[k]) << k;
+    in_front |= (unsigned)((nx > TR_R(0.0)) & (ny > TR_R(0.0)) & (nz > TR_R(0.0))) << k;
   }
+  *ahead = in_front;
   return mask;
 }
 
@@ -222,22 +230,35 @@ TR_FN_INLINE void tr_packet_offer(TrRayPacket* pk, int r, int hit, real t, int p
   pk->prim[r] = nearer ? prim : prim_r;
 }
 
-/* Triangle prim offered to each ray r of the group of TR_PACKET_GROUP rays from ray g
- * with enter[r] set, a ray per SIMD lane: tr_triangle_hit_at without branches, then
- * tr_packet_offer. The group's other rays are computed and dropped. */
-TR_FN_INLINE void tr_packet_triangle_lanes(const TrSceneRef* s, TrRayPacket* pk, int prim,
-                                           const int* enter, int g, int any_hit) {
-  TR_GLOBAL const TrTriangle* tri = &s->triangles[prim - s->params->n_spheres];
-  vec3 p0 = tr_triangle_p0(tri), p1 = tr_triangle_p1(tri), p2 = tr_triangle_p2(tri);
+/* Triangle p0 p1 p2 (primitive prim) offered to each ray r of the group of
+ * TR_PACKET_GROUP rays from ray g with enter[r] set, a ray per SIMD lane:
+ * tr_triangle_hit_at without branches (may_straddle a constant), then tr_packet_offer.
+ * The group's other rays are computed and dropped. */
+TR_FN_INLINE void tr_packet_triangle_lanes_of(TrRayPacket* pk, vec3 p0, vec3 p1, vec3 p2, int prim,
+                                              const int* enter, int g, int any_hit,
+                                              int may_straddle) {
   TR_LANE_LOOP
   for (int r = g; r < g + TR_PACKET_GROUP; ++r) {
     TrTriangleRay tri_ray = tr_packet_triangle_ray(pk, r);
     vec3 bary;
     real t;
     int hit = enter[r] & tr_triangle_hit_at(p0, p1, p2, TR_VEC3(pk->ox[r], pk->oy[r], pk->oz[r]),
-                                            &tri_ray, 0, &t, &bary);
+                                            &tri_ray, 0, may_straddle, &t, &bary);
     tr_packet_offer(pk, r, hit, t, prim, any_hit);
   }
+}
+
+/* Triangle prim offered to the group's rays as above; `ahead` where its leaf's box lies
+ * ahead of every ray of the packet (tr_packet_hits_boxes), which lets the lanes skip
+ * the straddle bound. */
+TR_FN_INLINE void tr_packet_triangle_lanes(const TrSceneRef* s, TrRayPacket* pk, int prim,
+                                           const int* enter, int g, int any_hit, int ahead) {
+  TR_GLOBAL const TrTriangle* tri = &s->triangles[prim - s->params->n_spheres];
+  vec3 p0 = tr_triangle_p0(tri), p1 = tr_triangle_p1(tri), p2 = tr_triangle_p2(tri);
+  if (ahead)
+    tr_packet_triangle_lanes_of(pk, p0, p1, p2, prim, enter, g, any_hit, 0);
+  else
+    tr_packet_triangle_lanes_of(pk, p0, p1, p2, prim, enter, g, any_hit, 1);
 }
 
 /* Sphere prim offered to each ray r of the group from ray g with enter[r] set, a ray
@@ -265,9 +286,10 @@ TR_FN_INLINE void tr_packet_sphere_lanes(const TrSceneRef* s, TrRayPacket* pk, i
  * scalar test, whose branches on a mesh's small triangles go either way (mesh_1e6
  * frames 0.93 of the time, docs/performance.md). The lane loops vectorize in g++ and on
  * PoCL alike, since the primitive tests compute in scalars (LLVM does not widen
- * float3). */
+ * float3). `ahead`: the leaf's box lies ahead of every ray of the packet
+ * (tr_packet_hits_boxes). */
 TR_FN_INLINE void tr_packet_leaf(const TrSceneRef* s, TrRayPacket* pk, int first, int count,
-                                 tr_mask64 in, const int* enter, int any_hit) {
+                                 tr_mask64 in, const int* enter, int any_hit, int ahead) {
   /* Bit g set for each group (from ray g) tested in lanes; the other rays of `in` go
    * one at a time. With a minimum of one ray, every group that holds one. */
   tr_mask64 lane_groups = 0, lone_rays = 0;
@@ -286,7 +308,7 @@ TR_FN_INLINE void tr_packet_leaf(const TrSceneRef* s, TrRayPacket* pk, int first
       if (sphere)
         tr_packet_sphere_lanes(s, pk, prim, enter, g, any_hit);
       else if (TR_HAS(TR_F_TRIANGLES))
-        tr_packet_triangle_lanes(s, pk, prim, enter, g, any_hit);
+        tr_packet_triangle_lanes(s, pk, prim, enter, g, any_hit, ahead);
     }
     /* One ray at a time, the offer keeps its branches: most tests miss, and the selects
      * of tr_packet_offer made spheres_1e5 frames 7% slower here (docs/performance.md). */
@@ -399,7 +421,8 @@ TR_FN_INLINE void tr_packet_walk_masked(const TrSceneRef* s, TrRayPacket* pk, tr
     TR_GLOBAL const int* first = tr_bvh_node_links(boxes, W);
     TR_GLOBAL const int* count = first + W;
     real t_entry[TR_BVH_MAX_WIDTH];
-    unsigned mask = tr_packet_hits_boxes(boxes, pk, tmax_grown, W, t_entry);
+    unsigned ahead = 0u;
+    unsigned mask = tr_packet_hits_boxes(boxes, pk, tmax_grown, W, t_entry, &ahead);
     unsigned lead_enters = 0u;
     if (mask != 0u) {
       TrBoxPlanes planes = tr_box_planes(boxes, pk->rows, W);
@@ -430,7 +453,7 @@ TR_FN_INLINE void tr_packet_walk_masked(const TrSceneRef* s, TrRayPacket* pk, tr
         continue;
       }
       leaves_tested = 1;
-      tr_packet_leaf(s, pk, first[k], count[k], in, enter, any_hit);
+      tr_packet_leaf(s, pk, first[k], count[k], in, enter, any_hit, (int)((ahead >> k) & 1u));
     }
     if (leaves_tested) {
       tmax_grown = tr_packet_tmax_grown(pk);

@@ -47,9 +47,12 @@ TR_FN_INLINE TrTriangleRay tr_triangle_ray(TrRay ray) {
  * constant, in a loop that runs a ray per SIMD lane: bvh_packet.h) it has no control
  * flow: every check is computed, *t is always set and *bary never. Both give the same
  * answer and t, from the same operations. No float3 arithmetic (tr_sub3,
- * tr_max_abs), so that PoCL vectorizes that loop too. */
+ * tr_max_abs), so that PoCL vectorizes that loop too. `may_straddle` 0 (a constant)
+ * says the caller knows that the vertices' ray-space depths az, bz, cz are all > 0
+ * (tr_packet_hits_boxes's `ahead`), so the straddle bound below, which would then
+ * reject nothing, is not computed; 1 otherwise. */
 TR_FN_INLINE int tr_triangle_hit_at(vec3 p0, vec3 p1, vec3 p2, vec3 o, const TrTriangleRay* tr,
-                                    int branches, real* t_hit, vec3* bary) {
+                                    int branches, int may_straddle, real* t_hit, vec3* bary) {
   /* Translate to the ray origin, permute so the dominant direction axis is z. */
   int kx = tr->kx, ky = tr->ky, kz = tr->kz;
   vec3 a = tr_permute(tr_sub3(p0, o), kx, ky, kz);
@@ -93,7 +96,7 @@ TR_FN_INLINE int tr_triangle_hit_at(vec3 p0, vec3 p1, vec3 p2, vec3 o, const TrT
    * det is tiny next to |e| max|x||y|, delta_t exceeded t and rays through the
    * needle's shared edges leaked (tests/robustness, aspect 1e7 in float). */
   int straddles = !(tr_min(az, tr_min(bz, cz)) > TR_R(0.0));
-  if (!branches || straddles) {
+  if (may_straddle && (!branches || straddles)) {
     real max_zt = tr_max_abs(az, bz, cz);
     real max_xt = tr_max_abs(ax, bx, cx);
     real max_yt = tr_max_abs(ay, by, cy);
@@ -134,7 +137,7 @@ TR_FN_INLINE real tr_triangle_t_bary(TR_GLOBAL const TrTriangle* tri, TrRay ray,
                                      const TrTriangleRay* tr, vec3* bary) {
   real t = TR_R(0.0);
   int hit = tr_triangle_hit_at(tr_triangle_p0(tri), tr_triangle_p1(tri), tr_triangle_p2(tri), ray.o,
-                               tr, 1, &t, bary);
+                               tr, 1, 1, &t, bary);
   return hit ? t : TR_R(0.0);
 }
 
