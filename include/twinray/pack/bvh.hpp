@@ -104,6 +104,11 @@ constexpr int kParallelPassPrims = 65536;
 // Nodes of at least this many primitives are partitioned by comparing each centroid with
 // one value found by a bisection (Builder::sah_split); smaller ones by their bins.
 constexpr int kPartitionByValuePrims = 128;
+// Nodes (or blocks of the root's pass) of at least kBinSetsMinPrims primitives are
+// binned into kBinSets sets of bins, merged after (Builder::sah_split).
+constexpr int kBinSets = 4;
+constexpr int kBinSetsMinPrims = 256;
+static_assert((kBinSets & (kBinSets - 1)) == 0 && 64 % kBinSets == 0, "a power of two");
 
 // The widths a BVH can have, and the fastest on each backend (measured with
 // bench/twinray_bench.cpp --bvh-width, docs/performance.md "BVH width").
@@ -695,9 +700,27 @@ struct Builder {
     // primitives often fall in one bin, where each update waits for the one before;
     // found in the same loop, each bin's conversions queued behind those updates
     // (mesh_1e6's pack took about 1.1 times as long; docs/performance.md).
+    auto merge = [n_bins](Bins& into, const Bins& from) {
+      for (int k = 0; k < n_bins; ++k) {
+        Bin& t = into.bin[k];
+        const Bin& f = from.bin[k];
+        t.count += f.count;
+        t.grow(f);
+      }
+    };
+    // kBinSets sets of bins, primitive k in set k mod kBinSets, merged at the end: where
+    // neighbours fall in one bin (a mesh in spatial order), each update of a bin waits
+    // for the last one's store; spread over four copies, four updates overlap. Minima,
+    // maxima and counts are exact, so the merged bins, and the tree, are the same bits.
+    // mesh_1e6's build took 0.75-0.85 of the time with one set, spheres_1e6's (random
+    // order) 0.9-0.95 (docs/performance.md, "BVH build"). Few primitives keep one set,
+    // whose set-up and merge would cost them more.
     auto bin_pass = [&](int b, int e) {
-      Bins set;
-      for (int k = 0; k < n_bins; ++k) set.bin[k] = Bin::empty();
+      const int sets = e - b >= kBinSetsMinPrims ? kBinSets : 1;
+      Bins set[kBinSets];
+      for (int s = 0; s < sets; ++s)
+        for (int k = 0; k < n_bins; ++k) set[s].bin[k] = Bin::empty();
+      const int set_mask = sets - 1;
       constexpr int kChunk = 64;
       int bin_index[kChunk];
       for (int chunk = b; chunk < e; chunk += kChunk) {
@@ -710,20 +733,13 @@ struct Builder {
           const R hi4[4] = {box.hi[0], box.hi[1], box.hi[2], box.hi[0]};
           R c[4];  // c[a] is PrimRef::centroid(a), as binned
           for (int l = 0; l < 4; ++l) c[l] = PrimRef<R>::midpoint(lo4[l], hi4[l]);
-          Bin& bin = set.bin[bin_index[k]];
+          Bin& bin = set[k & set_mask].bin[bin_index[k]];
           bin.count++;
           bin.grow(lo4, hi4, c, c);
         }
       }
-      return set;
-    };
-    auto merge = [n_bins](Bins& into, const Bins& from) {
-      for (int k = 0; k < n_bins; ++k) {
-        Bin& t = into.bin[k];
-        const Bin& f = from.bin[k];
-        t.count += f.count;
-        t.grow(f);
-      }
+      for (int s = 1; s < sets; ++s) merge(set[0], set[s]);
+      return set[0];
     };
     Bins set = reduce_range<Bins>(begin, end, all_threads, bin_pass, merge);
     const Bin* bins = set.bin;
