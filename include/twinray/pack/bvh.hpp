@@ -526,18 +526,26 @@ struct Builder {
     // nothing else touches `nodes`), the right one into an array of its own, spliced
     // in after it. The result does not depend on the thread count, and only the right
     // half's nodes take fresh pages and a copy.
+    // The side that finishes first hands its thread back at once, so that the other
+    // side's splits can take it: held until both were done, it sat idle for as long as
+    // the larger side outlasted the smaller (an SAH split need not halve the work).
     LargeVector<Node> right(1);
+    std::atomic<bool> handed_back{false};
+    auto hand_back = [&] {
+      if (!handed_back.exchange(true)) spare_threads.fetch_add(1);
+    };
     parallel_for(2, 1, [&](int side) {
       if (side == 0) {
         build(nodes, first, begin, mid, depth + 1, child_box[0], child_cbox[0]);
+        hand_back();
         return;
       }
       // As many nodes as primitives, as for the whole tree (build_binary): growing by
       // doubling copied the nodes and touched fresh pages again.
       right.reserve(static_cast<size_t>(end - mid));
       build(right, 0, mid, end, depth + 1, child_box[1], child_cbox[1]);
+      hand_back();
     });
-    spare_threads.fetch_add(1);
     splice(nodes, first + 1, right);
   }
 
