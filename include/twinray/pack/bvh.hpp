@@ -108,7 +108,8 @@ constexpr int kPartitionByValuePrims = 128;
 // binned into kBinSets sets of bins, merged after (Builder::sah_split).
 constexpr int kBinSets = 4;
 constexpr int kBinSetsMinPrims = 256;
-static_assert((kBinSets & (kBinSets - 1)) == 0 && 64 % kBinSets == 0, "a power of two");
+static_assert(kBinSets > 0 && (kBinSets & (kBinSets - 1)) == 0,
+              "kBinSets: a power of two (a primitive's set is its index masked)");
 
 // The widths a BVH can have, and the fastest on each backend (measured with
 // bench/twinray_bench.cpp --bvh-width, docs/performance.md "BVH width").
@@ -704,10 +705,6 @@ struct Builder {
     auto bin_of_centroid = [&](R centroid) {
       return std::min(n_bins - 1, static_cast<int>((centroid - lo) * scale));
     };
-    // A chunk's bins are found in a loop of their own before any bin grows. Neighbouring
-    // primitives often fall in one bin, where each update waits for the one before;
-    // found in the same loop, each bin's conversions queued behind those updates
-    // (mesh_1e6's pack took about 1.1 times as long; docs/performance.md).
     auto merge = [n_bins](Bins& into, const Bins& from) {
       for (int k = 0; k < n_bins; ++k) {
         Bin& t = into.bin[k];
@@ -720,9 +717,13 @@ struct Builder {
     // neighbours fall in one bin (a mesh in spatial order), each update of a bin waits
     // for the last one's store; spread over four copies, four updates overlap. Minima,
     // maxima and counts are exact, so the merged bins, and the tree, are the same bits.
-    // mesh_1e6's build took 0.75-0.85 of the time with one set, spheres_1e6's (random
-    // order) 0.9-0.95 (docs/performance.md, "BVH build"). Few primitives keep one set,
+    // mesh_1e6's build took 0.78-0.85 of its time with one set, spheres_1e6's (random
+    // order) 0.91-1.00 (docs/performance.md, "BVH build"). Few primitives keep one set,
     // whose set-up and merge would cost them more.
+    // A chunk's bins are found in a loop of their own before any bin grows. Neighbouring
+    // primitives often fall in one bin, where each update waits for the one before;
+    // found in the same loop, each bin's conversions queued behind those updates
+    // (mesh_1e6's pack took about 1.1 times as long; docs/performance.md).
     auto bin_pass = [&](int b, int e) {
       const int sets = e - b >= kBinSetsMinPrims ? kBinSets : 1;
       Bins set[kBinSets];
