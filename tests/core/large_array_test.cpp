@@ -43,7 +43,10 @@ TEST_CASE("a large array keeps its elements as it grows past the huge-page size 
 #include <sys/mman.h>
 #include <unistd.h>
 
+#include <mutex>
 #include <vector>
+
+#include <twinray/core/parallel.hpp>
 
 namespace {
 
@@ -113,6 +116,55 @@ TEST_CASE("inside a recycling scope freed large arrays serve the next ones, resi
     CHECK(twinray::detail::recycled_bytes_kept() == 4 * kMiB);
   }
   CHECK(twinray::detail::recycled_bytes_kept() == 0);
+}
+
+TEST_CASE("a fresh large array is faulted in as it is made, except inside a parallel_for body") {
+  if (!twinray::detail::kMapsHugePages) return;
+  const size_t big = twinray::detail::kFaultInBytes;
+  {
+    twinray::LargeVector<char> a;
+    a.reserve(big);  // nothing writes it
+    CHECK(resident(a.data(), big));
+  }
+  {
+    twinray::LargeVector<char> below;  // smaller ones fault as they are written
+    below.reserve(big - twinray::kHugePageBytes);
+    CHECK_FALSE(resident(below.data(), big - twinray::kHugePageBytes));
+  }
+  // Inside a parallel_for body (the build's subtrees), on one thread or on several, the
+  // thread that writes the array faults it.
+  for (int threads : {1, 2}) {
+    twinray::set_thread_count(threads);
+    bool any_resident = false;
+    std::mutex m;
+    twinray::parallel_for(2, 1, [&](int) {
+      twinray::LargeVector<char> inside;
+      inside.reserve(big);
+      const bool r = resident(inside.data(), big);
+      std::lock_guard<std::mutex> lock(m);
+      any_resident = any_resident || r;
+    });
+    CHECK_FALSE(any_resident);
+  }
+  twinray::set_thread_count(0);
+  // After the body, the flag is back: a fresh array is faulted in again.
+  twinray::LargeVector<char> after;
+  after.reserve(big);
+  CHECK(resident(after.data(), big));
+}
+
+TEST_CASE("the fresh part of a recycled range is faulted in as it is made") {
+  if (!twinray::detail::kMapsHugePages) return;
+  twinray::LargeArrayRecycling recycling;
+  { twinray::LargeVector<char> a(2 * kMiB, 'a'); }
+  REQUIRE(twinray::detail::recycled_bytes_kept() == 2 * kMiB);
+  const size_t size = 2 * kMiB + twinray::detail::kFaultInBytes;
+  twinray::LargeVector<char> b;
+  b.reserve(size);  // a's 2 MiB moved in, the rest fresh
+  CHECK(twinray::detail::recycled_bytes_kept() == 0);
+  CHECK(resident(b.data(), size));
+  b.assign(size, 'b');
+  CHECK(b[size - 1] == 'b');
 }
 
 TEST_CASE("recycling scopes nest: what is kept is unmapped when the last one closes") {

@@ -23,6 +23,17 @@
 // mapping large enough is split, smaller ones are moved side by side with mremap,
 // which moves their pages (whole 2 MiB pages where aligned) without copying or
 // faulting them. When the last scope closes, what is left is unmapped.
+//
+// Fresh pages on every thread. A fresh mapping of kFaultInBytes or more is faulted in
+// at once, its pages split between parallel_for's threads, unless it is made inside a
+// parallel_for body (the build's side-by-side subtrees, whose own threads fault their
+// arrays as they write them). On a virtual machine that hands freed memory back to its
+// host (virtio-balloon free page reporting), a page not touched for a few seconds costs
+// a fault in the host as well: 2.2 ms per MiB in 2 MiB pages on one thread, 1.2 on two
+// (a KVM guest with 2 vCPUs), where a page freed a moment before costs 0.1. The
+// vector's own first write, value-initialization or a copy, is one thread's loop, and
+// met those faults one after another: the first 1e6-sphere build in a process took
+// 1.3-1.9 times as long as the next (docs/performance.md, "Huge pages").
 #pragma once
 
 #include <algorithm>
@@ -31,6 +42,8 @@
 #include <new>
 #include <utility>
 #include <vector>
+
+#include <twinray/core/parallel.hpp>
 
 #if defined(__linux__)
 #include <sys/mman.h>
@@ -68,6 +81,27 @@ inline void unmap_huge(void* p, std::size_t bytes) {
   munmap(p, huge_pages_size(bytes));
 }
 
+// Mappings (or fresh parts of them) of at least this size are faulted in as they are
+// made, on every thread (see "Fresh pages" above).
+inline constexpr std::size_t kFaultInBytes = std::size_t(8) << 20;
+
+// Faults in the pages of [p, p + bytes), which start on a huge-page boundary, on
+// parallel_for's threads; nothing inside a parallel_for body. MADV_POPULATE_WRITE
+// (Linux 5.14) faults pages in without writing them; where the kernel lacks it, one
+// zero byte per 4 KiB page does the same to fresh anonymous memory.
+inline void fault_in(void* p, std::size_t bytes) {
+  if (bytes < kFaultInBytes || in_parallel_body()) return;
+  char* base = static_cast<char*>(p);
+  const int pages = static_cast<int>(huge_pages_size(bytes) / kHugePageBytes);
+  parallel_for(pages, 1, [&](int i) {
+    char* page = base + static_cast<std::size_t>(i) * kHugePageBytes;
+#if defined(MADV_POPULATE_WRITE)
+    if (madvise(page, kHugePageBytes, MADV_POPULATE_WRITE) == 0) return;
+#endif
+    for (std::size_t k = 0; k < kHugePageBytes; k += 4096) static_cast<volatile char*>(page)[k] = 0;
+  });
+}
+
 // The mappings freed while a LargeArrayRecycling scope is open, for the next large
 // arrays. Every address and size is a multiple of kHugePageBytes.
 class HugePagePool {
@@ -98,18 +132,20 @@ class HugePagePool {
   }
 
   // A mapping of `bytes` (rounded up to whole huge pages) made of kept pages as far as
-  // they go; nullptr where none are kept. The smallest kept mapping that is large
-  // enough gives its head; else a fresh range is mapped and the largest kept
-  // mappings are moved into it from its start, the rest of it left fresh. (mremap
+  // they go, its first *kept bytes of them (the rest fresh); nullptr where none are
+  // kept. The smallest kept mapping that is large enough gives its head; else a fresh
+  // range is mapped and the largest kept mappings are moved into it from its start,
+  // the rest of it left fresh. (mremap
   // moves a range of one mapping only: a kept range that was itself put together
   // from several fails to move, and its share of the new range stays fresh.)
-  void* take(std::size_t bytes) {
+  void* take(std::size_t bytes, std::size_t* kept) {
     const std::size_t size = huge_pages_size(bytes);
     std::lock_guard<std::mutex> lock(mutex_);
     if (chunks_.empty()) return nullptr;
     auto fits = chunks_.end();
     for (auto c = chunks_.begin(); c != chunks_.end(); ++c)
       if (c->second >= size && (fits == chunks_.end() || c->second < fits->second)) fits = c;
+    *kept = size;
     if (fits != chunks_.end()) return take_head(fits, size);
     char* range = static_cast<char*>(map_huge(size));
     std::sort(chunks_.begin(), chunks_.end(),
@@ -125,6 +161,7 @@ class HugePagePool {
       c.second -= n;
       if (c.second == 0) chunks_.pop_back();
     }
+    *kept = filled;
     return range;
   }
 
@@ -151,9 +188,13 @@ class HugePagePool {
   std::vector<Chunk> chunks_;
 };
 
+// Outside the pool's lock: another thread's allocation need not wait for the faults.
 inline void* allocate_huge(std::size_t bytes) {
-  if (void* p = HugePagePool::instance().take(bytes)) return p;
-  return map_huge(bytes);
+  std::size_t kept = 0;
+  char* p = static_cast<char*>(HugePagePool::instance().take(bytes, &kept));
+  if (!p) p = static_cast<char*>(map_huge(bytes));
+  fault_in(p + kept, huge_pages_size(bytes) - kept);
+  return p;
 }
 inline void free_huge(void* p, std::size_t bytes) {
   if (!HugePagePool::instance().give(p, bytes)) unmap_huge(p, bytes);

@@ -31,6 +31,25 @@ inline std::atomic<int>& thread_count_setting() {
   static std::atomic<int> setting{0};
   return setting;
 }
+// Whether this thread is running a parallel_for's body (as a worker, or as the caller
+// that works too): large arrays made there are not faulted in on every thread
+// (core/large_array.hpp).
+inline bool& in_parallel_body() {
+  thread_local bool inside = false;
+  return inside;
+}
+
+// Marks this thread as running a parallel_for's body until it goes out of scope.
+class ParallelBodyScope {
+ public:
+  ParallelBodyScope() : was_inside_(in_parallel_body()) { in_parallel_body() = true; }
+  ~ParallelBodyScope() { in_parallel_body() = was_inside_; }
+  ParallelBodyScope(const ParallelBodyScope&) = delete;
+  ParallelBodyScope& operator=(const ParallelBodyScope&) = delete;
+
+ private:
+  bool was_inside_;
+};
 }  // namespace detail
 
 // Threads every parallel_for uses from now on; 0: all hardware threads.
@@ -59,6 +78,7 @@ void parallel_for(int count, int grain, Body&& body) {
   const int chunks = (count - 1) / grain + 1;
   const int workers = std::min(thread_count(), chunks);
   if (workers <= 1) {
+    detail::ParallelBodyScope inside;
     for (int i = 0; i < count; ++i) body(i);
     return;
   }
@@ -67,6 +87,7 @@ void parallel_for(int count, int grain, Body&& body) {
   std::exception_ptr error;
   std::mutex error_mutex;
   auto work = [&]() {
+    detail::ParallelBodyScope inside;
     try {
       for (int begin; !failed.load(std::memory_order_relaxed) &&
                       (begin = next.fetch_add(grain, std::memory_order_relaxed)) < count;)
