@@ -300,17 +300,14 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
     // in the order the leaves list them, so a leaf's primitives lie side by side in
     // memory and a ray that walks the tree reads them in order (hits report the object
     // id stored in the primitive, which moves with it). bvh_prims then runs through
-    // each array in order. Triangles are packed a second time, straight into their
-    // slots: no copy in object order (44 MB of fresh pages for a million). Spheres are
-    // packed once, in object order, and moved: a second pass over a million sphere
-    // objects reads a few hundred MB of variants again, and measured no faster than
-    // the copy (docs/performance.md, "BVH build").
+    // each array in order. Spheres and triangles are packed a second time, straight
+    // into their slots: no copy in object order. For a million spheres that copy was
+    // 32 MB of fresh pages, which cost more than the second pass over the objects where
+    // the memory is new to the process (docs/performance.md, "BVH build").
     const int n_sph = static_cast<int>(n_spheres);
     LargeVector<bvh::PrimRef<T>> refs(n_spheres + n_triangles);
-    LargeVector<typename device::Code<T>::Sphere> spheres_by_id(n_spheres);
     for_each_primitive(
         [&](size_t k, const auto& s) {
-          spheres_by_id[k] = s;
           refs[k] = {bvh::primitive_box<T>(s), static_cast<int>(k)};
         },
         [&](size_t k, const auto& t, const Mesh<T>*, size_t) {
@@ -330,17 +327,12 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
           ps.bvh_prims[static_cast<size_t>(i)];
     });
     allocate_bounded();
-    parallel_for(n_sph, 8192, [&](int k) {
-      ps.spheres[static_cast<size_t>(slot[static_cast<size_t>(k)])] =
-          spheres_by_id[static_cast<size_t>(k)];
-    });
-    if (n_triangles > 0)
-      for_each_primitive([](size_t, const auto&) {},
-                         [&](size_t k, const auto& t, const Mesh<T>* m, size_t f) {
-                           store_triangle(static_cast<size_t>(slot[n_spheres + k]) - n_spheres, t,
-                                          m, f);
-                         },
-                         [](size_t, const auto&) {});  // planes: packed above
+    for_each_primitive(
+        [&](size_t k, const auto& s) { ps.spheres[static_cast<size_t>(slot[k])] = s; },
+        [&](size_t k, const auto& t, const Mesh<T>* m, size_t f) {
+          store_triangle(static_cast<size_t>(slot[n_spheres + k]) - n_spheres, t, m, f);
+        },
+        [](size_t, const auto&) {});  // planes: packed above
     ps.bvh_nodes = std::move(tree.nodes);
   }
   if (!ps.spheres.empty()) ps.features |= TR_F_SPHERES;
