@@ -135,9 +135,9 @@ class HugePagePool {
   // they go, its first *kept bytes of them (the rest fresh); nullptr where none are
   // kept. The smallest kept mapping that is large enough gives its head; else a fresh
   // range is mapped and the largest kept mappings are moved into it from its start,
-  // the rest of it left fresh. (mremap
-  // moves a range of one mapping only: a kept range that was itself put together
-  // from several fails to move, and its share of the new range stays fresh.)
+  // the rest of it left fresh. (mremap moves a range of one mapping only: a kept range
+  // that was itself put together from several fails to move, and its share of the new
+  // range stays fresh.)
   void* take(std::size_t bytes, std::size_t* kept) {
     const std::size_t size = huge_pages_size(bytes);
     std::lock_guard<std::mutex> lock(mutex_);
@@ -145,8 +145,10 @@ class HugePagePool {
     auto fits = chunks_.end();
     for (auto c = chunks_.begin(); c != chunks_.end(); ++c)
       if (c->second >= size && (fits == chunks_.end() || c->second < fits->second)) fits = c;
-    *kept = size;
-    if (fits != chunks_.end()) return take_head(fits, size);
+    if (fits != chunks_.end()) {
+      *kept = size;
+      return take_head(fits, size);
+    }
     char* range = static_cast<char*>(map_huge(size));
     std::sort(chunks_.begin(), chunks_.end(),
               [](const Chunk& a, const Chunk& b) { return a.second < b.second; });
