@@ -530,7 +530,15 @@ struct Builder {
     // The side that finishes first hands its thread back at once, so that the other
     // side's splits can take it: held until both were done, it sat idle for as long as
     // the larger side outlasted the smaller (an SAH split need not halve the work).
+    // The right side's array holds as many nodes as primitives, as for the whole tree
+    // (build_binary): growing by doubling copied the nodes and touched fresh pages
+    // again. It is reserved before the two sides start, so that its fresh pages are
+    // faulted in on every thread (core/large_array.hpp, "Fresh pages"; not inside
+    // another split's sides). Reserved by the right side itself, they were its thread's
+    // alone: a million spheres' right side took 16-32 ms longer than the left, whose
+    // thread sat idle for most of it (docs/performance.md, "Huge pages").
     LargeVector<Node> right(1);
+    right.reserve(static_cast<size_t>(end - mid));
     std::atomic<bool> handed_back{false};
     auto hand_back = [&] {
       if (!handed_back.exchange(true)) spare_threads.fetch_add(1);
@@ -541,9 +549,6 @@ struct Builder {
         hand_back();
         return;
       }
-      // As many nodes as primitives, as for the whole tree (build_binary): growing by
-      // doubling copied the nodes and touched fresh pages again.
-      right.reserve(static_cast<size_t>(end - mid));
       build(right, 0, mid, end, depth + 1, child_box[1], child_cbox[1]);
       hand_back();
     });
