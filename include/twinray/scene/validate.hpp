@@ -245,11 +245,17 @@ void validate_object(const Scene<T>& scene, size_t i) {
 
 }  // namespace detail
 
+// Objects are checked in chunks of this many, on every thread (validate_geometry).
+inline constexpr size_t kValidateChunk = 4096;
+
 // Geometry and materials: finite geometry, radii > 0, non-zero plane normals, mesh,
 // material and texture indices in range, unit vertex normals, finite uvs, texels in [0, 1];
 // material and background colors in [0, 1]; ka, kd, ks and shininess >= 0; glaze in [0, 1].
-template <class T>
-void validate_geometry(const Scene<T>& scene) {
+// `after_chunk(chunk, begin, end)` runs on each chunk of kValidateChunk objects that
+// passed, on the thread that checked it, while its objects are still in the caches:
+// pack_scene counts the primitives there instead of reading a million objects again.
+template <class T, class AfterChunk>
+void validate_geometry(const Scene<T>& scene, const AfterChunk& after_chunk) {
   using detail::at;
   using detail::refuse;
   for (int c = 0; c < 3; ++c)
@@ -279,7 +285,7 @@ void validate_geometry(const Scene<T>& scene) {
   // MB of objects to read); each chunk stops at its first bad object, and the error
   // of the lowest such chunk is the one reported, so the message does not depend on
   // the thread count.
-  constexpr size_t kChunk = 4096;
+  constexpr size_t kChunk = kValidateChunk;
   const size_t n_chunks = block_count(scene.objects.size(), kChunk);
   std::vector<std::exception_ptr> errors(n_chunks);
   std::atomic<size_t> first_bad{n_chunks};
@@ -287,6 +293,7 @@ void validate_geometry(const Scene<T>& scene) {
     if (first_bad.load(std::memory_order_relaxed) < chunk) return;  // an earlier one failed
     try {
       for (size_t i = begin; i < end; ++i) detail::validate_object(scene, i);
+      after_chunk(chunk, begin, end);
     } catch (...) {
       errors[chunk] = std::current_exception();
       size_t seen = first_bad.load();
@@ -296,6 +303,10 @@ void validate_geometry(const Scene<T>& scene) {
   });
   const size_t bad = first_bad.load();
   if (bad < n_chunks) std::rethrow_exception(errors[bad]);
+}
+template <class T>
+void validate_geometry(const Scene<T>& scene) {
+  validate_geometry(scene, [](size_t, size_t, size_t) {});
 }
 
 // Lights: finite positions, intensities and colors >= 0, and a finite product of the two.
