@@ -224,6 +224,16 @@ static_assert(TR_BVH_MAX_WIDTH == 8, "the walk's per-node arrays hold the widest
 // An axis-aligned box. The builder keeps primitives' boxes in the scene's precision
 // (R = T), rounded outward, so a million float primitives stream through each level of
 // the build as 28-byte records; bins, centroid bounds and SAH costs are in double.
+// Half the surface area of the box [lo, hi] (3 values each), 0 for an empty one (lo[0] >
+// hi[0]): the SAH's measure, in double whatever R is. Boxes and the builder's bins
+// (Builder::sah_split) both take it from here, so their areas are the same bits.
+template <class R>
+double half_area_of(const R* lo, const R* hi) {
+  if (lo[0] > hi[0]) return 0;
+  double dx = double(hi[0]) - lo[0], dy = double(hi[1]) - lo[1], dz = double(hi[2]) - lo[2];
+  return dx * dy + dy * dz + dz * dx;
+}
+
 template <class R>
 struct BasicBox {
   R lo[3] = {std::numeric_limits<R>::infinity(), std::numeric_limits<R>::infinity(),
@@ -245,10 +255,13 @@ struct BasicBox {
     }
   }
   bool empty() const { return lo[0] > hi[0]; }
-  double half_area() const {
-    if (empty()) return 0;
-    double dx = double(hi[0]) - lo[0], dy = double(hi[1]) - lo[1], dz = double(hi[2]) - lo[2];
-    return dx * dy + dy * dz + dz * dx;
+  double half_area() const { return half_area_of(lo, hi); }
+  // The box converted to another precision, lane by lane (exact from float to double).
+  template <class S>
+  BasicBox<S> as() const {
+    BasicBox<S> b;
+    for (int a = 0; a < 3; ++a) b.lo[a] = S(lo[a]), b.hi[a] = S(hi[a]);
+    return b;
   }
 };
 using Box = BasicBox<double>;
@@ -685,6 +698,7 @@ struct Builder {
         return b;
       }
       BasicBox<R> box() const { return bounds(lo, hi); }
+      double half_area() const { return half_area_of(lo, hi); }
       BasicBox<R> cbox() const { return bounds(clo, chi); }
       static BasicBox<R> bounds(const R* l, const R* h) {
         BasicBox<R> b;
@@ -780,7 +794,7 @@ struct Builder {
     for (int b = n_bins - 1; b > 0; --b) {
       acc.grow_box(bins[b]);
       count += bins[b].count;
-      right_area[b] = acc.box().half_area();
+      right_area[b] = acc.half_area();
       right_count[b] = count;
     }
     acc = Bin::empty();
@@ -788,7 +802,7 @@ struct Builder {
     for (int b = 0; b < n_bins - 1; ++b) {
       acc.grow_box(bins[b]);
       count += bins[b].count;
-      double cost = acc.box().half_area() * count + right_area[b + 1] * right_count[b + 1];
+      double cost = acc.half_area() * count + right_area[b + 1] * right_count[b + 1];
       // Selects, not a branch: which bin wins is data the predictor cannot learn.
       bool better = count > 0 && right_count[b + 1] > 0 && cost < best_cost;
       best_cost = better ? cost : best_cost;
@@ -805,9 +819,8 @@ struct Builder {
     Bin sides[2] = {Bin::empty(), Bin::empty()};
     for (int b = 0; b < n_bins; ++b) sides[b <= split ? 0 : 1].grow(bins[b]);
     for (int side = 0; side < 2; ++side) {
-      child_box[side] = child_cbox[side] = Box();
-      child_box[side].grow(sides[side].box());
-      child_cbox[side].grow(sides[side].cbox());
+      child_box[side] = sides[side].box().template as<double>();
+      child_cbox[side] = sides[side].cbox().template as<double>();
     }
     // Partition by bin_of_centroid, the function that counted each primitive in its
     // bin. For a large node, with one compare per centroid: bin_of_centroid is monotonic
