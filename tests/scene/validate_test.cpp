@@ -2,8 +2,11 @@
 // names the value (the path a scene file would use) and the problem.
 #include <doctest/doctest.h>
 
+#include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include <twinray/core/parallel.hpp>
 #include <twinray/scene/validate.hpp>
@@ -125,6 +128,47 @@ TEST_CASE("the first bad object is named, whatever the thread count") {
     CHECK(refusal([&] {
             validate(s);
           }).find("objects[12288].center: must be finite, got [12288, ") == 0);
+  }
+  set_thread_count(0);
+}
+
+TEST_CASE("validate_geometry's callback sees every chunk that passed, once, and no later one") {
+  // pack_scene counts primitives in this callback, so each object must be in exactly
+  // one reported chunk when the scene is valid, whatever the thread count.
+  Scene<float> s;
+  s.add_material({});
+  const size_t n = 3 * kValidateChunk + 17;
+  for (size_t i = 0; i < n; ++i) s.add(Sphere<float>{{float(i), 0, -5}, 0.25f, 0});
+  for (int threads : {1, 2, 3, 8}) {
+    CAPTURE(threads);
+    set_thread_count(threads);
+    std::vector<std::atomic<int>> seen(n);
+    std::atomic<int> calls{0};
+    validate_geometry(s, [&](size_t chunk, size_t begin, size_t end) {
+      CHECK(begin == chunk * kValidateChunk);
+      CHECK(end == std::min(n, begin + kValidateChunk));
+      for (size_t i = begin; i < end; ++i) seen[i]++;
+      calls++;
+    });
+    CHECK(calls == 4);
+    size_t once = 0;
+    for (auto& k : seen) once += k == 1 ? 1 : 0;
+    CHECK(once == n);
+  }
+  // A bad object in the third chunk: the first two may have been reported, the bad one's
+  // chunk is not, and the refusal is the one validate() gives.
+  std::get<Sphere<float>>(s.objects[2 * kValidateChunk + 5]).radius = -1;
+  for (int threads : {1, 8}) {
+    CAPTURE(threads);
+    set_thread_count(threads);
+    std::atomic<bool> bad_chunk_reported{false};
+    const std::string message = refusal([&] {
+      validate_geometry(s, [&](size_t chunk, size_t, size_t) {
+        if (chunk == 2) bad_chunk_reported = true;
+      });
+    });
+    CHECK(message.find("objects[" + std::to_string(2 * kValidateChunk + 5) + "].radius") == 0);
+    CHECK_FALSE(bad_chunk_reported);
   }
   set_thread_count(0);
 }
