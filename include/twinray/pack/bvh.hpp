@@ -221,9 +221,6 @@ static_assert(stack_needed(2) <= TR_BVH_STACK_SIZE && stack_needed(4) <= TR_BVH_
               "BVH depth cap exceeds the traversal stack");
 static_assert(TR_BVH_MAX_WIDTH == 8, "the walk's per-node arrays hold the widest node");
 
-// An axis-aligned box. The builder keeps primitives' boxes in the scene's precision
-// (R = T), rounded outward, so a million float primitives stream through each level of
-// the build as 28-byte records; bins, centroid bounds and SAH costs are in double.
 // Half the surface area of the box [lo, hi] (3 values each), 0 for an empty one (lo[0] >
 // hi[0]): the SAH's measure, in double whatever R is. Boxes and the builder's bins
 // (Builder::sah_split) both take it from here, so their areas are the same bits.
@@ -234,6 +231,9 @@ double half_area_of(const R* lo, const R* hi) {
   return dx * dy + dy * dz + dz * dx;
 }
 
+// An axis-aligned box. The builder keeps primitives' boxes in the scene's precision
+// (R = T), rounded outward, so a million float primitives stream through each level of
+// the build as 28-byte records; bins, centroid bounds and SAH costs are in double.
 template <class R>
 struct BasicBox {
   R lo[3] = {std::numeric_limits<R>::infinity(), std::numeric_limits<R>::infinity(),
@@ -408,10 +408,8 @@ void bounds_of(const LargeVector<PrimRef<R>>& refs, int begin, int end, Box* box
   };
   Bounds all;
   reduce_range(begin, end, all_threads, all, pass, merge);
-  *box = Box();
-  box->grow(all.box);
-  *cbox = Box();
-  cbox->grow(all.cbox);
+  *box = all.box.template as<double>();
+  *cbox = all.cbox.template as<double>();
 }
 
 // Moves the elements of v[begin, end) for which is_left holds before the others and
