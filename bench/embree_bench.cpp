@@ -5,7 +5,7 @@
 //
 //   embree_bench [--scenes a,b] [--modes single,packet8,stream] [--spheres user,point]
 //                [--runs R] [--width W] [--height H] [--threads N] [--obj-dir DIR]
-//                [--image PREFIX]
+//                [--image PREFIX] [--device-config CONFIG]
 //
 // Each frame is rendered as a wavefront per 16x16 tile: all rays of one bounce are
 // traced together, then their shadow rays, then the reflected rays. The mode picks how
@@ -26,6 +26,12 @@
 // slower than a Release build of the same version. build_ms is
 // rtcCommitScene (geometry upload included), the BVH build in Embree's default
 // (medium) quality with Embree's own threads.
+//
+// --device-config (or the environment variable TWINRAY_EMBREE_DEVICE_CONFIG, which
+// reaches the program under `twinray bench --against`) is rtcNewDevice's configuration
+// string: "isa=avx2" keeps Embree to its AVX2 kernels on an AVX-512 machine, to compare
+// it with a twinray built for AVX2 (docs/performance.md, "AVX2 code on an AVX-512
+// machine").
 #include <embree3/rtcore.h>
 #include <pmmintrin.h>
 #include <xmmintrin.h>
@@ -594,7 +600,9 @@ const char* usage =
     "  --height H          image height (default 1080)\n"
     "  --threads N         render threads (default: all hardware threads)\n"
     "  --obj-dir DIR       where obj_* scenes write their OBJ file (default .)\n"
-    "  --image PREFIX      write each row's frame to PREFIX<scene>-<backend>.ppm\n";
+    "  --image PREFIX      write each row's frame to PREFIX<scene>-<backend>.ppm\n"
+    "  --device-config S   rtcNewDevice's configuration, e.g. isa=avx2 (default:\n"
+    "                      $TWINRAY_EMBREE_DEVICE_CONFIG, else Embree's defaults)\n";
 
 }  // namespace
 
@@ -604,6 +612,8 @@ int main(int argc, char** argv) {
   std::vector<std::string> sphere_kinds = {"user"};
   int width = 1920, height = 1080, runs = 5, threads = 0;
   std::string obj_dir = ".", image_prefix;
+  const char* config_env = std::getenv("TWINRAY_EMBREE_DEVICE_CONFIG");
+  std::string device_config = config_env ? config_env : "";
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
     if (a == "--help" || a == "-h") {
@@ -633,6 +643,8 @@ int main(int argc, char** argv) {
       obj_dir = v;
     else if (a == "--image")
       image_prefix = v;
+    else if (a == "--device-config")
+      device_config = v;
     else {
       std::cerr << "embree_bench: unknown option " << a << "\n" << usage;
       return 2;
@@ -652,6 +664,7 @@ int main(int argc, char** argv) {
   std::cerr << "machine: " << twinray_bench::machine_description() << "\n"
             << "Embree " << RTC_VERSION_STRING
             << " (Debian build, assertions on: 3-8% slower than a Release build)\n";
+  if (!device_config.empty()) std::cerr << "Embree device configuration: " << device_config << "\n";
   std::cout << twinray_bench::csv_header() << std::endl;
   try {
     for (const std::string& name : scenes) {
@@ -660,7 +673,12 @@ int main(int argc, char** argv) {
         const SphereKind kind = kind_str == "user" ? SphereKind::User : SphereKind::Point;
         twinray_bench::reset_peak();
         World w;
-        w.device = rtcNewDevice(nullptr);
+        w.device = rtcNewDevice(device_config.empty() ? nullptr : device_config.c_str());
+        if (!w.device) {
+          std::cerr << "embree_bench: Embree refused the device configuration '" << device_config
+                    << "'\n";
+          return 2;
+        }
         auto t0 = std::chrono::steady_clock::now();
         build_world(w, b, kind);
         rtcCommitScene(w.scene);
