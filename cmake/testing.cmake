@@ -1,13 +1,17 @@
-# twinray_add_test(NAME src... [LIBS lib...]): a doctest executable linked with the test
-# main (tests/test_main.cpp), twinray::twinray and the CPU backend compiled once for all
-# tests and examples (twinray_generic_cpu, CMakeLists.txt), whose test cases become
-# CTest tests named "NAME: case", each run with TWINRAY_TEST_ENV (the program caches of
-# the build).
+# twinray_add_test(NAME src... [LIBS lib...] [CPU lib]): a doctest executable linked with
+# the test main (tests/test_main.cpp), twinray::twinray and the CPU backend compiled once
+# for all tests and examples (twinray_generic_cpu, CMakeLists.txt; CPU names another
+# twinray_cpu_instances library, for tests of the device code built with other
+# options), whose test cases become CTest tests named "NAME: case", each run with
+# TWINRAY_TEST_ENV (the program caches of the build).
 # Sources include test helpers as "support/...", "backend/..." (relative to tests/).
 function(twinray_add_test name)
-  cmake_parse_arguments(ARG "" "" "LIBS" ${ARGN})
+  cmake_parse_arguments(ARG "" "CPU" "LIBS" ${ARGN})
+  if(NOT ARG_CPU)
+    set(ARG_CPU twinray_generic_cpu)
+  endif()
   add_executable(${name} ${ARG_UNPARSED_ARGUMENTS})
-  target_link_libraries(${name} PRIVATE twinray_test_main twinray_generic_cpu twinray::twinray
+  target_link_libraries(${name} PRIVATE twinray_test_main ${ARG_CPU} twinray::twinray
                                         ${ARG_LIBS})
   target_compile_options(${name} PRIVATE ${TWINRAY_WARNINGS})
   # The environment goes on the discovered tests from a script CTest reads after them:

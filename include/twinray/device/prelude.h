@@ -200,16 +200,21 @@ inline long long& ray_counter() {
 /* A leaf's primitives go a ray per lane, 16 at a time, for a group of the packet that
  * holds at least this many of the rays that entered the leaf, and one ray at a time
  * otherwise (tr_packet_leaf). Where a register holds 16 floats (AVX-512) the lanes cost
- * one vector per test and win from one ray on; where it holds 8 (AVX2) they cost two,
- * and win from half a group (on an AVX2 EPYC of CPU family 23, 4 rays made mesh_1e6
- * frames 2% slower than 8); with SSE's 4 they pay for full groups only.
- * The scalar tests leave at their first failed check (docs/performance.md, "Other
- * measured changes"). */
+ * one vector per test and win from one ray on. Where it holds 8 (AVX2) they cost two,
+ * and win from a quarter of a group: built for AVX2 and run on a Zen 4 class EPYC,
+ * mesh_1e6 frames took 0.88 of the time with 4 rays that they took with 8 (1 ray: the
+ * same as 4), and on a Zen 5 class one 4 did better than 8 and than 1. AMD's first Zen
+ * (__znver1__) splits each 256-bit operation in two, and there 8 did best (4: mesh_1e6
+ * 2% slower, 1: 15%). With SSE's 4 lanes they pay for full groups only. The scalar
+ * tests leave at their first failed check (docs/performance.md, "Other measured
+ * changes"). */
 #ifndef TR_LANE_GROUP_MIN_RAYS
 #if defined(__AVX512F__)
 #define TR_LANE_GROUP_MIN_RAYS 1
-#elif defined(__AVX2__)
+#elif defined(__AVX2__) && defined(__znver1__)
 #define TR_LANE_GROUP_MIN_RAYS 8
+#elif defined(__AVX2__)
+#define TR_LANE_GROUP_MIN_RAYS 4
 #else
 #define TR_LANE_GROUP_MIN_RAYS 16
 #endif
