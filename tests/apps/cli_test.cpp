@@ -18,6 +18,7 @@
 
 #include "support/subprocess.hpp"
 
+using test_support::contains;
 using test_support::fresh_folder;
 using test_support::listing;
 using test_support::read_file;
@@ -36,10 +37,6 @@ Result run_twinray(std::vector<std::string> args, const std::string& cwd = "",
                    const std::vector<std::string>& env = {}) {
   args.insert(args.begin(), kTwinray);
   return run(args, cwd, env);
-}
-
-bool contains(const std::string& haystack, const std::string& needle) {
-  return haystack.find(needle) != std::string::npos;
 }
 
 // A small valid scene using every key of docs/scene-format.md; the malformed files below

@@ -5,8 +5,8 @@
 // Broken OpenCL set-ups are made with the real ICD loader and PoCL where they can be:
 // no platform (OCL_ICD_VENDORS = an empty folder), a platform without devices
 // (POCL_DEVICES naming none), a device with too little memory (POCL_MEMORY_LIMIT).
-// Two need twinray's documented test hooks (backend/opencl/program.hpp, backend/opencl/device.hpp): a kernel that does
-// not build (TWINRAY_TEST_KERNEL_APPEND) and a device without fp64
+// Two need twinray's documented test hooks (backend/opencl/program.hpp, backend/opencl/device.hpp):
+// a kernel that does not build (TWINRAY_TEST_KERNEL_APPEND) and a device without fp64
 // (TWINRAY_TEST_HIDE_FP64; PoCL has fp64). Unwritable folders and full disks are real
 // read-only and 64 KiB tmpfs mounts when the test may mount them (as root: root ignores
 // file permissions), otherwise a read-only folder (or, for root, /proc/self) and
@@ -29,12 +29,9 @@
 namespace fs = std::filesystem;
 using Child = test_support::Result;
 using ChildOptions = test_support::RunOptions;
+using test_support::contains;
 
 namespace {
-
-bool contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
-}
 
 // A fresh folder for one test case.
 std::string work_dir(const std::string& name) {

@@ -28,6 +28,7 @@ const std::string kScenes = TWINRAY_SCENES_DIR;
 const std::string kWork = TWINRAY_TEST_WORK_DIR;
 
 using Run = test_support::Result;
+using test_support::contains;
 using test_support::read_file;
 
 std::string fresh(const std::string& name) {
@@ -54,10 +55,6 @@ test_support::Process start(const std::vector<std::string>& argv, const std::str
   test_support::RunOptions o;
   o.cwd = dir;
   return test_support::Process::start(argv, o);
-}
-
-bool contains(const std::string& s, const std::string& part) {
-  return s.find(part) != std::string::npos;
 }
 
 // "codec_name=h264\nwidth=..." of the first video stream, frames counted.

@@ -27,6 +27,7 @@ const std::string kMpirun = TWINRAY_MPIRUN;
 const std::string kScenes = TWINRAY_SCENES_DIR;
 const std::string kWork = TWINRAY_TEST_WORK_DIR;
 
+using test_support::contains;
 using test_support::read_file;
 using test_support::Result;
 
@@ -57,10 +58,6 @@ std::vector<std::string> mpirun(int ranks, std::vector<std::string> args) {
 
 Result ranks(int n, const std::vector<std::string>& args, const std::string& dir) {
   return test_support::run(mpirun(n, args), in(dir));
-}
-
-bool contains(const std::string& s, const std::string& part) {
-  return s.find(part) != std::string::npos;
 }
 
 int count_frames(const std::string& folder) {

@@ -12,6 +12,7 @@
 
 namespace {
 
+using test_support::contains;
 using test_support::Result;
 
 // A tiny frame of the demo scene, one mode, one timed run.
@@ -34,10 +35,6 @@ Result run_embree_bench(std::vector<std::string> extra, const std::vector<std::s
   options.env.insert(options.env.end(), env.begin(), env.end());
   options.timeout_s = 120;
   return test_support::run(argv, options);
-}
-
-bool contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
 }
 
 // Embree's verbose "Config" block: the ISA line of what the device will use.

@@ -42,8 +42,8 @@ struct Result {
 };
 
 struct RunOptions {
-  std::string cwd;               // empty: this process's
-  std::vector<std::string> env;  // "NAME=value" sets or replaces, "NAME" removes
+  std::string cwd;                // empty: this process's
+  std::vector<std::string> env;   // "NAME=value" sets or replaces, "NAME" removes
   long long max_file_bytes = -1;  // RLIMIT_FSIZE of the child (-1: unchanged)
   int timeout_s = 300;
 };
@@ -51,6 +51,11 @@ struct RunOptions {
 inline std::string read_file(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+}
+
+// Whether a program's output holds `part`.
+inline bool contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
 }
 
 inline void write_file(const std::string& path, const std::string& bytes) {
