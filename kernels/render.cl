@@ -14,10 +14,11 @@
       __global const TrMaterial *materials, __global const TrLight *lights,              \
       __global const real *bvh_nodes, __global const int *bvh_prims,                     \
       __global const TrTriangleAttr *triangle_attrs, __global const TrTexture *textures, \
-      __global const real *texels
+      __global const real *texels, __global const unsigned int *object_masks,            \
+      __global const int *triangle_faces
 #define TR_SCENE_ARG_NAMES                                                                     \
   params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims, triangle_attrs, \
-      textures, texels
+      textures, texels, object_masks, triangle_faces
 
 static inline TrSceneRef tr_scene_ref(TR_SCENE_ARGS) {
   TrSceneRef s;
@@ -32,6 +33,8 @@ static inline TrSceneRef tr_scene_ref(TR_SCENE_ARGS) {
   s.triangle_attrs = triangle_attrs;
   s.textures = textures;
   s.texels = texels;
+  s.object_masks = object_masks;
+  s.triangle_faces = triangle_faces;
   return s;
 }
 
@@ -119,6 +122,30 @@ __kernel void tr_kernel_adaptive_refine(TR_SCENE_ARGS, __global real* out,
 
 #endif
 
+#if TR_HOLDS(TR_ENTRY_QUERY)
+/* Ray queries (device/ray_query.h), one work-item per ray: rays [get_global_offset(0),
+ * end) of the buffers, the range launched in pieces through the global offset. `extras`
+ * is written only where extra_flags asks for some. */
+__kernel void tr_kernel_intersect(TR_SCENE_ARGS, __global const TrQueryRay* rays,
+                                  __global TrQueryHit* hits, __global TrQueryExtras* extras,
+                                  int extra_flags, ulong end) {
+  size_t i = get_global_id(0);
+  if (i >= end) return;
+  TrSceneRef s = tr_scene_ref(TR_SCENE_ARG_NAMES);
+  tr_query_intersect(&s, &rays[i], &hits[i], &extras[extra_flags != 0 ? i : 0], extra_flags);
+}
+
+/* blocked[i] = 1 where anything lies on ray i within its interval, else 0. */
+__kernel void tr_kernel_occluded(TR_SCENE_ARGS, __global const TrQueryRay* rays,
+                                 __global uchar* blocked, ulong end) {
+  size_t i = get_global_id(0);
+  if (i >= end) return;
+  TrSceneRef s = tr_scene_ref(TR_SCENE_ARG_NAMES);
+  blocked[i] = (uchar)(tr_query_occluded(&s, &rays[i]) ? 1 : 0);
+}
+
+#endif
+
 #if TR_ENTRY_POINTS == TR_ENTRY_ALL
 /* Every sample position of every pixel, for tests of device/sampling.h:
  * out[((y * width + x) * spp + i) * 2 + {0, 1}] = (x, y) of sample i. */
@@ -147,5 +174,8 @@ __kernel void tr_kernel_layout_sizes(__global int* out) {
   out[6] = (int)sizeof(TrParams);
   out[7] = (int)sizeof(TrTriangleAttr);
   out[8] = (int)sizeof(TrTexture);
+  out[9] = (int)sizeof(TrQueryRay);
+  out[10] = (int)sizeof(TrQueryHit);
+  out[11] = (int)sizeof(TrQueryExtras);
 }
 #endif

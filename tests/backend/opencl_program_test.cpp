@@ -241,11 +241,12 @@ TEST_CASE_TEMPLATE("buffer structs have the same size in the kernel as on the ho
   using Code = device::Code<T>;
   std::vector<int> device = opencl::shared_context(-1).device_struct_sizes(sizeof(T) == 8);
   std::vector<int> host = {
-      int(sizeof(typename Code::Sphere)), int(sizeof(typename Code::Triangle)),
-      int(sizeof(typename Code::Plane)),  int(sizeof(typename Code::Material)),
-      int(sizeof(typename Code::Light)),  int(sizeof(T)),
-      int(sizeof(typename Code::Params)), int(sizeof(typename Code::TriangleAttr)),
-      int(sizeof(typename Code::Texture))};
+      int(sizeof(typename Code::Sphere)),   int(sizeof(typename Code::Triangle)),
+      int(sizeof(typename Code::Plane)),    int(sizeof(typename Code::Material)),
+      int(sizeof(typename Code::Light)),    int(sizeof(T)),
+      int(sizeof(typename Code::Params)),   int(sizeof(typename Code::TriangleAttr)),
+      int(sizeof(typename Code::Texture)),  int(sizeof(typename Code::QueryRay)),
+      int(sizeof(typename Code::QueryHit)), int(sizeof(typename Code::QueryExtras))};
   CHECK(device == host);
 }
 
@@ -322,8 +323,9 @@ TEST_CASE("a render's program holds only the kernels it launches") {
        {"tr_kernel_adaptive_first", "tr_kernel_adaptive_mark", "tr_kernel_adaptive_refine"}},
       {TR_ENTRY_ALL,
        {"tr_kernel_adaptive_first", "tr_kernel_adaptive_mark", "tr_kernel_adaptive_refine",
-        "tr_kernel_aov", "tr_kernel_layout_sizes", "tr_kernel_render", "tr_kernel_render_blocks",
-        "tr_kernel_sample_positions"}}};
+        "tr_kernel_aov", "tr_kernel_intersect", "tr_kernel_layout_sizes", "tr_kernel_occluded",
+        "tr_kernel_render", "tr_kernel_render_blocks", "tr_kernel_sample_positions"}},
+      {TR_ENTRY_QUERY, {"tr_kernel_intersect", "tr_kernel_occluded"}}};
   for (const auto& entry_case : cases) {
     // Named copies, not a structured binding: C++17 lets no lambda (CAPTURE's) capture one.
     const int entry_points = entry_case.first;

@@ -23,10 +23,21 @@
 //    render, adaptive sampling included.
 //  - A backend object is used from one thread at a time; several objects may render at
 //    once (OpenCL objects on one device take turns on its queue).
+//
+// Ray queries (docs/ray-queries.md): the same backend answers the user's own rays, a
+// batch of any size at a time, with the same bits on every backend, batch size, ray
+// order, thread count, BVH width and ISA:
+//   std::vector<twinray::Ray<float>> rays(n);  // origin, direction, tmin, tmax, mask
+//   std::vector<twinray::Hit<float>> hits(n);  // t, u, v, normal, object, primitive
+//   backend->intersect(rays.data(), n, hits.data());      // closest hit
+//   std::vector<uint8_t> blocked(n);
+//   backend->occluded(rays.data(), n, blocked.data());    // any hit in [tmin, tmax]
 #pragma once
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -36,6 +47,45 @@
 #include <twinray/pack/pack.hpp>
 
 namespace twinray {
+
+// A ray of a query (device/types.h, TrQueryRay): fields ox, oy, oz (origin), dx, dy, dz
+// (direction, any nonzero length: t counts its lengths), tmin, tmax (hits are looked for
+// in [tmin, tmax], t > 0) and mask (objects whose mask shares no bit with it are
+// skipped). make_ray() fills one from vectors.
+template <class T>
+using Ray = typename device::Code<T>::QueryRay;
+// The closest hit of a query ray (TrQueryHit): t, u, v, nx, ny, nz (the unit
+// geometric normal, facing the ray's origin), object (index in Scene::objects) and
+// primitive (the triangle's index in its mesh; 0 for other shapes). A miss: t = +inf,
+// object = primitive = -1.
+template <class T>
+using Hit = typename device::Code<T>::QueryHit;
+// What intersect() adds on request (TrQueryExtras): snx, sny, snz (the unit shading
+// normal, on the geometric normal's side) and tex_u, tex_v (texture coordinates).
+template <class T>
+using HitExtra = typename device::Code<T>::QueryExtras;
+
+// Which extras intersect() computes (flags; or them together).
+enum class HitExtras : unsigned {
+  None = 0,
+  ShadingNormal = TR_QUERY_SHADING_NORMAL,
+  TextureUv = TR_QUERY_TEXTURE_UV,
+};
+inline HitExtras operator|(HitExtras a, HitExtras b) {
+  return static_cast<HitExtras>(static_cast<unsigned>(a) | static_cast<unsigned>(b));
+}
+
+// A query ray from origin o along d, with hits looked for in [tmin, tmax].
+template <class T>
+Ray<T> make_ray(const glm::vec<3, T>& o, const glm::vec<3, T>& d, T tmin = T(0),
+                T tmax = T(INFINITY), uint32_t mask = 0xffffffffu) {
+  Ray<T> r{};
+  r.ox = o.x, r.oy = o.y, r.oz = o.z;
+  r.dx = d.x, r.dy = d.y, r.dz = d.z;
+  r.tmin = tmin, r.tmax = tmax;
+  r.mask = mask;
+  return r;
+}
 
 template <class T>
 class RenderBackend {
@@ -70,6 +120,38 @@ class RenderBackend {
     render_into(request, image, info);
     return image;
   }
+
+  // The closest hit of each of the n rays against the scene: hits[i] for rays[i]
+  // (device/ray_query.h). With `extras`, also extra_out[i] (fields not asked for are
+  // 0). A ray that is not valid (a direction of zero, a coordinate that is NaN or
+  // infinite, tmin infinite or NaN, tmax < tmin or tmax < 0) gets a miss. Any n; the
+  // batch goes through in chunks, with no copy of the whole of it. Throws InvalidInput
+  // for null arrays with n > 0, extras without extra_out, or no scene.
+  void intersect(const Ray<T>* rays, size_t n, Hit<T>* hits, HitExtras extras = HitExtras::None,
+                 HitExtra<T>* extra_out = nullptr) {
+    const unsigned flags = static_cast<unsigned>(extras);
+    if (flags & ~unsigned(TR_QUERY_SHADING_NORMAL | TR_QUERY_TEXTURE_UV))
+      throw invalid_input("intersect: unknown HitExtras bits " + std::to_string(flags));
+    if (n > 0 && (!rays || !hits))
+      throw invalid_input("intersect: null rays or hits for " + std::to_string(n) + " rays");
+    if (n > 0 && flags != 0 && !extra_out)
+      throw invalid_input("intersect: extras asked for, but extra_out is null");
+    intersect_rays(rays, n, hits, flags, extra_out);
+  }
+
+  // Whether anything lies on each ray within [tmin, tmax]: blocked[i] = 1 exactly when
+  // intersect() would find a hit for rays[i], else 0 (a ray that is not valid: 0).
+  void occluded(const Ray<T>* rays, size_t n, uint8_t* blocked) {
+    if (n > 0 && (!rays || !blocked))
+      throw invalid_input("occluded: null rays or blocked for " + std::to_string(n) + " rays");
+    occluded_rays(rays, n, blocked);
+  }
+
+ protected:
+  // What intersect() and occluded() run once their arguments are checked.
+  virtual void intersect_rays(const Ray<T>* rays, size_t n, Hit<T>* hits, unsigned extras,
+                              HitExtra<T>* extra_out) = 0;
+  virtual void occluded_rays(const Ray<T>* rays, size_t n, uint8_t* blocked) = 0;
 };
 
 // A packed scene as set_scene() takes it.

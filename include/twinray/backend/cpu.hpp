@@ -38,20 +38,79 @@ constexpr unsigned compiled_features(unsigned needed) {
   return (needed & kHostSpecializedFeatures) | (TR_F_ALL & ~kHostSpecializedFeatures);
 }
 
-// Calls f(std::integral_constant<unsigned, Features>) with the instantiation for a
-// render that needs `needed`: walks the specialized bits from the lowest up, turning
-// each run-time bit into a template argument.
-template <unsigned Remaining = kHostSpecializedFeatures, unsigned Fixed = 0u, class F>
-void with_features(unsigned needed, F&& f) {
+// Calls f(std::integral_constant<unsigned, Features>) with the instantiation for work
+// that needs `needed`, the bits of Specialized as template arguments and every other
+// bit compiled in: walks the specialized bits from the lowest up, turning each
+// run-time bit into a template argument.
+template <unsigned Specialized, unsigned Remaining = Specialized, unsigned Fixed = 0u, class F>
+void with_features_of(unsigned needed, F&& f) {
   if constexpr (Remaining == 0u) {
-    f(std::integral_constant<unsigned, Fixed | (TR_F_ALL & ~kHostSpecializedFeatures)>());
+    f(std::integral_constant<unsigned, Fixed | (TR_F_ALL & ~Specialized)>());
   } else {
     constexpr unsigned bit = Remaining & (~Remaining + 1u);
     if (needed & bit)
-      with_features<Remaining & ~bit, Fixed | bit>(needed, f);
+      with_features_of<Specialized, Remaining & ~bit, Fixed | bit>(needed, f);
     else
-      with_features<Remaining & ~bit, Fixed>(needed, f);
+      with_features_of<Specialized, Remaining & ~bit, Fixed>(needed, f);
   }
+}
+
+// The instantiation for a render that needs `needed`.
+template <class F>
+void with_features(unsigned needed, F&& f) {
+  with_features_of<kHostSpecializedFeatures>(needed, f);
+}
+
+// Ray queries (device/ray_query.h) specialize the bits that remove the most of their
+// work: a scene without triangles, planes or masks runs none of that code. 2^3
+// instantiations per precision, apart from the renderer's.
+constexpr unsigned kQuerySpecializedFeatures = TR_F_TRIANGLES | TR_F_PLANES | TR_F_MASKS;
+
+// Calls chunk(begin, end) for consecutive ranges of at most kQueryChunk of the n rays,
+// handed out to the threads. Each ray's answer is its own, so the split changes none.
+constexpr size_t kQueryChunk = 256;
+template <class F>
+void for_each_ray_chunk(size_t n, F&& chunk) {
+  const size_t chunks = (n + kQueryChunk - 1) / kQueryChunk;
+  const size_t per_pass = static_cast<size_t>(1) << 30;  // parallel_for counts in int
+  for (size_t first = 0; first < chunks; first += per_pass) {
+    const int count = static_cast<int>(std::min(per_pass, chunks - first));
+    parallel_for(count, 1, [&](int c) {
+      const size_t begin = (first + static_cast<size_t>(c)) * kQueryChunk;
+      chunk(begin, std::min(n, begin + kQueryChunk));
+    });
+  }
+}
+
+// The closest hit of each of the n rays against `scene` (RenderBackend::intersect), on
+// this thread and parallel_for's: what CpuBackend runs, callable without a backend.
+template <class T>
+void query_intersect(const PackedScene<T>& scene, const Ray<T>* rays, size_t n, Hit<T>* hits,
+                     unsigned extras, HitExtra<T>* extra_out) {
+  const auto params = query_params(scene.summary());
+  const auto ref = scene_ref<T>(scene, &params, nullptr);
+  with_features_of<kQuerySpecializedFeatures>(scene.features, [&](auto features) {
+    using K = typename device::Code<T>::template CpuKernel<decltype(features)::value>;
+    for_each_ray_chunk(n, [&](size_t begin, size_t end) {
+      for (size_t i = begin; i < end; ++i)
+        K::tr_query_intersect(&ref, &rays[i], &hits[i], extra_out ? &extra_out[i] : nullptr,
+                              static_cast<int>(extras));
+    });
+  });
+}
+
+// Whether anything blocks each of the n rays (RenderBackend::occluded): 1 or 0.
+template <class T>
+void query_occluded(const PackedScene<T>& scene, const Ray<T>* rays, size_t n, uint8_t* blocked) {
+  const auto params = query_params(scene.summary());
+  const auto ref = scene_ref<T>(scene, &params, nullptr);
+  with_features_of<kQuerySpecializedFeatures>(scene.features, [&](auto features) {
+    using K = typename device::Code<T>::template CpuKernel<decltype(features)::value>;
+    for_each_ray_chunk(n, [&](size_t begin, size_t end) {
+      for (size_t i = begin; i < end; ++i)
+        blocked[i] = static_cast<uint8_t>(K::tr_query_occluded(&ref, &rays[i]) ? 1 : 0);
+    });
+  });
 }
 
 // Calls block(x, y, w, h) for every block of at most block_w x block_h pixels of the
@@ -92,6 +151,18 @@ class CpuBackend final : public RenderBackend<T> {
     scene_ = std::move(scene);
   }
 
+ protected:
+  void intersect_rays(const Ray<T>* rays, size_t n, Hit<T>* hits, unsigned extras,
+                      HitExtra<T>* extra_out) override {
+    require_scene(scene_ != nullptr);
+    query_intersect(*scene_, rays, n, hits, extras, extra_out);
+  }
+  void occluded_rays(const Ray<T>* rays, size_t n, uint8_t* blocked) override {
+    require_scene(scene_ != nullptr);
+    query_occluded(*scene_, rays, n, blocked);
+  }
+
+ public:
   void render_into(const RenderRequest<T>& request, Image<T>& image,
                    RenderInfo* info = nullptr) override {
     require_scene(scene_ != nullptr);

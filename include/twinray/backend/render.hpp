@@ -105,7 +105,34 @@ class AutoBackend final : public RenderBackend<T> {
     }
   }
 
+ protected:
+  // Queries go to the backend that renders (OpenCL until it fails, then the CPU): both
+  // give the same bits.
+  void intersect_rays(const Ray<T>* rays, size_t n, Hit<T>* hits, unsigned extras,
+                      HitExtra<T>* extra_out) override {
+    with_fallback(
+        [&] { active_->intersect(rays, n, hits, static_cast<HitExtras>(extras), extra_out); });
+  }
+  void occluded_rays(const Ray<T>* rays, size_t n, uint8_t* blocked) override {
+    with_fallback([&] { active_->occluded(rays, n, blocked); });
+  }
+
  private:
+  template <class F>
+  void with_fallback(F&& run) {
+    if (active_->kind() == Backend::Cpu) return run();
+    try {
+      return run();
+    } catch (const Error& e) {
+      if (e.kind() == ErrorKind::InvalidInput) throw;
+      log_note(options_,
+               std::string("backend auto: OpenCL failed, using the CPU (") + e.what() + ")");
+      active_ = std::make_unique<cpu::CpuBackend<T>>();
+      active_->set_scene(scene_);
+      return run();
+    }
+  }
+
   std::unique_ptr<RenderBackend<T>> active_;
   std::shared_ptr<const PackedScene<T>> scene_;
   RenderOptions options_;

@@ -46,6 +46,16 @@ TR_FN_INLINE real tr_primitive_t(const TrSceneRef* s, int prim, TrRay ray,
   return TR_R(0.0);
 }
 
+/* The same for a ray query: a sphere's first crossing from tmin on. */
+TR_FN_INLINE real tr_primitive_t_from(const TrSceneRef* s, int prim, TrRay ray,
+                                      const TrTriangleRay* tri_ray, real tmin) {
+  int n_spheres = s->params->n_spheres;
+  if (TR_HAS(TR_F_SPHERES) && prim < n_spheres)
+    return tr_sphere_t_from(&s->spheres[prim], ray, tmin);
+  if (TR_HAS(TR_F_TRIANGLES)) return tr_triangle_t(&s->triangles[prim - n_spheres], ray, tri_ray);
+  return TR_R(0.0);
+}
+
 /* Keeps (t, prim) if it comes before the nearest hit so far in the order of t, then
  * primitive id. The order is total, so the nearest hit does not depend on the order
  * primitives are tested in: neither the BVH's shape and width nor the order children
@@ -59,6 +69,44 @@ TR_FN_INLINE void tr_offer_hit(TrNearest* nearest, real t, int prim) {
     nearest->t = t;
     nearest->prim = prim;
   }
+}
+
+/* Ray queries (ray_query.h) order hits by (t, object, primitive in its object), the
+ * scene's own numbering, which no packing or BVH changes: this is a primitive's key
+ * after t. Ids as in TrNearest. */
+TR_FN_INLINE int tr_query_object(const TrSceneRef* s, int prim) {
+  int n_spheres = s->params->n_spheres, n_bounded = n_spheres + s->params->n_triangles;
+  if (TR_HAS(TR_F_SPHERES) && prim < n_spheres) return s->spheres[prim].object;
+  if (TR_HAS(TR_F_TRIANGLES) && prim < n_bounded) return s->triangles[prim - n_spheres].object;
+  if (TR_HAS(TR_F_PLANES)) return s->planes[prim - n_bounded].object;
+  return -1;
+}
+TR_FN_INLINE int tr_query_face(const TrSceneRef* s, int prim) {
+  int n_spheres = s->params->n_spheres;
+  if (TR_HAS(TR_F_TRIANGLES) && prim >= n_spheres && prim < n_spheres + s->params->n_triangles)
+    return s->triangle_faces[prim - n_spheres];
+  return 0;
+}
+
+/* Whether a query keeps (t, prim) over its nearest hit so far: t in [tmin, nearest_t]
+ * and > 0, and before it in the order of t, then object, then primitive. While there
+ * is none (nearest_prim < 0, nearest_t the ray's tmax) a hit at exactly tmax is kept:
+ * the interval is closed. The keys are read on exact ties of t only. */
+TR_FN_INLINE int tr_query_precedes(const TrSceneRef* s, real t, int prim, real tmin, real nearest_t,
+                                   int nearest_prim) {
+  if (!(t > TR_R(0.0)) || !(t >= tmin) || !(t <= nearest_t)) return 0;
+  if (t < nearest_t || nearest_prim < 0) return 1;
+  int object = tr_query_object(s, prim), nearest_object = tr_query_object(s, nearest_prim);
+  return object < nearest_object ||
+         (object == nearest_object && tr_query_face(s, prim) < tr_query_face(s, nearest_prim));
+}
+
+/* Whether a query ray with mask ray_mask skips primitive prim: its object's mask
+ * shares no bit with the ray's (as Embree's RTC_FEATURE_RAY_MASK). Only where the
+ * scene has masks (TR_F_MASKS). */
+TR_FN_INLINE int tr_query_skips(const TrSceneRef* s, int prim, unsigned int ray_mask) {
+  if (!tr_use(s, TR_F_MASKS)) return 0;
+  return (s->object_masks[tr_query_object(s, prim)] & ray_mask) == 0u;
 }
 
 /* 1 + 2 gamma(3): the factor the box test grows far distances and tmax by, so rounding
@@ -244,7 +292,7 @@ TR_FN_INLINE int tr_walk_next(unsigned inner, const real* t_entry, TR_GLOBAL con
  * (TR_BVH_STACK_SIZE). The triangle test's view of the ray is made at the first leaf:
  * many rays miss every box. */
 TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nearest, int any_hit,
-                                  int W) {
+                                  int W, int query, real tmin, unsigned int ray_mask) {
   if (s->params->n_bvh_nodes <= 0) return 0;
   TrBoxRay box_ray = tr_box_ray(ray);
   TrTriangleRay tri_ray;
@@ -274,8 +322,16 @@ TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nea
       }
       for (int i = first[k]; i < first[k] + count[k]; ++i) {
         int prim = tr_bvh_prim(s, i);
-        real t = tr_primitive_t(s, prim, ray, &tri_ray);
-        if (any_hit) {
+        if (query && tr_query_skips(s, prim, ray_mask)) continue;
+        real t = query ? tr_primitive_t_from(s, prim, ray, &tri_ray, tmin)
+                       : tr_primitive_t(s, prim, ray, &tri_ray);
+        if (query) {
+          if (tr_query_precedes(s, t, prim, tmin, nearest->t, nearest->prim)) {
+            if (any_hit) return 1;
+            nearest->t = t;
+            nearest->prim = prim;
+          }
+        } else if (any_hit) {
           if (t > TR_R(0.0) && t < nearest->t) return 1;
         } else {
           tr_offer_hit(nearest, t, prim);
@@ -294,8 +350,19 @@ TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nea
  * where the Features mask holds its bit; callers pass any_hit as a constant, so closest
  * hit and any hit each get a walk of their own. */
 TR_FN_INLINE int tr_bvh_walk(const TrSceneRef* s, TrRay ray, TrNearest* nearest, int any_hit) {
-  if (tr_use(s, TR_F_BVH8)) return tr_bvh_walk_wide(s, ray, nearest, any_hit, 8);
-  if (tr_use(s, TR_F_BVH4)) return tr_bvh_walk_wide(s, ray, nearest, any_hit, 4);
-  if (tr_use(s, TR_F_BVH2)) return tr_bvh_walk_wide(s, ray, nearest, any_hit, 2);
+  unsigned int all = 0xffffffffu;
+  if (tr_use(s, TR_F_BVH8)) return tr_bvh_walk_wide(s, ray, nearest, any_hit, 8, 0, TR_R(0.0), all);
+  if (tr_use(s, TR_F_BVH4)) return tr_bvh_walk_wide(s, ray, nearest, any_hit, 4, 0, TR_R(0.0), all);
+  if (tr_use(s, TR_F_BVH2)) return tr_bvh_walk_wide(s, ray, nearest, any_hit, 2, 0, TR_R(0.0), all);
+  return 0;
+}
+
+/* The walk of a ray query (ray_query.h): hits in [tmin, nearest->t] ordered by
+ * tr_query_precedes, objects the ray's mask excludes skipped. */
+TR_FN_INLINE int tr_bvh_walk_query(const TrSceneRef* s, TrRay ray, TrNearest* nearest, int any_hit,
+                                   real tmin, unsigned int ray_mask) {
+  if (tr_use(s, TR_F_BVH8)) return tr_bvh_walk_wide(s, ray, nearest, any_hit, 8, 1, tmin, ray_mask);
+  if (tr_use(s, TR_F_BVH4)) return tr_bvh_walk_wide(s, ray, nearest, any_hit, 4, 1, tmin, ray_mask);
+  if (tr_use(s, TR_F_BVH2)) return tr_bvh_walk_wide(s, ray, nearest, any_hit, 2, 1, tmin, ray_mask);
   return 0;
 }

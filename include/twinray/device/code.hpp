@@ -39,6 +39,9 @@ struct Kernel {
   using ns::TrMaterial;                         \
   using ns::TrParams;                           \
   using ns::TrPlane;                            \
+  using ns::TrQueryExtras;                      \
+  using ns::TrQueryHit;                         \
+  using ns::TrQueryRay;                         \
   using ns::TrSceneRef;                         \
   using ns::TrSlabRows;                         \
   using ns::TrSphere;                           \
@@ -123,6 +126,10 @@ static_assert(sizeof(f32::TrTexture) == 16 && sizeof(f64::TrTexture) == 16, "TrT
 static_assert(sizeof(f32::TrLight) == 24 && sizeof(f64::TrLight) == 48, "TrLight layout");
 static_assert(sizeof(f32::TrParams) == 76 + 88 && sizeof(f64::TrParams) == 152 + 88,
               "TrParams layout");
+static_assert(sizeof(f32::TrQueryRay) == 40 && sizeof(f64::TrQueryRay) == 72, "TrQueryRay layout");
+static_assert(sizeof(f32::TrQueryHit) == 32 && sizeof(f64::TrQueryHit) == 56, "TrQueryHit layout");
+static_assert(sizeof(f32::TrQueryExtras) == 24 && sizeof(f64::TrQueryExtras) == 48,
+              "TrQueryExtras layout");
 
 // The packet's per-ray arrays start on cache lines (types.h, TrRayPacket), so that a
 // lane loop's 16-ray group never straddles two.
@@ -163,6 +170,9 @@ struct Code<float> {
   using Sample2 = f32::TrSample2;
   using BlockScratch = f32::TrBlockScratch;
   using Nearest = f32::TrNearest;
+  using QueryRay = f32::TrQueryRay;
+  using QueryHit = f32::TrQueryHit;
+  using QueryExtras = f32::TrQueryExtras;
   template <unsigned Features>
   using Kernel = f32::Kernel<Features>;
   template <unsigned Features>
@@ -188,6 +198,9 @@ struct Code<double> {
   using Sample2 = f64::TrSample2;
   using BlockScratch = f64::TrBlockScratch;
   using Nearest = f64::TrNearest;
+  using QueryRay = f64::TrQueryRay;
+  using QueryHit = f64::TrQueryHit;
+  using QueryExtras = f64::TrQueryExtras;
   template <unsigned Features>
   using Kernel = f64::Kernel<Features>;
   template <unsigned Features>

@@ -20,7 +20,8 @@
 #define TR_F_TEXTURES 0x400u   /* some material has a texture */
 #define TR_F_BVH4 0x800u       /* ... through a 4-wide BVH */
 #define TR_F_BVH8 0x1000u      /* ... through an 8-wide BVH */
-#define TR_F_ALL 0x1fffu       /* the generic program: every feature compiled in */
+#define TR_F_MASKS 0x2000u     /* some object has a mask other than all ones (ray queries) */
+#define TR_F_ALL 0x3fffu       /* the generic program: every feature compiled in */
 /* A BVH of any width. A packed scene with a BVH sets exactly one of the three bits: the
  * width its nodes were built for (pack/bvh.hpp). */
 #define TR_F_BVH (TR_F_BVH2 | TR_F_BVH4 | TR_F_BVH8)
@@ -38,5 +39,6 @@
 #define TR_ENTRY_AOV 2      /* tr_kernel_aov */
 #define TR_ENTRY_ADAPTIVE 3 /* tr_kernel_adaptive_first, _mark and _refine */
 #define TR_ENTRY_BLOCKS 4   /* tr_kernel_render_blocks: an 8x8 block per work-item */
+#define TR_ENTRY_QUERY 5    /* tr_kernel_intersect and tr_kernel_occluded (ray_query.h) */
 
 #endif /* TWINRAY_DEVICE_FEATURES_H */

@@ -13,6 +13,7 @@
 #include "bvh_traverse.h"
 #include "bvh_packet.h"
 #include "scene_hit.h"
+#include "ray_query.h"
 #include "texture.h"
 #include "shading.h"
 #include "trace.h"

@@ -53,9 +53,10 @@ TR_FN_INLINE real tr_sphere_c(vec3 f, vec3 o, vec3 center, real r, int branches)
   return cancels ? accurate : c;
 }
 
-/* Whether the ray meets the sphere (center, r) where it first enters or leaves it,
- * and the distance along the ray there in *t (> 0 for a hit in front of the origin; a
- * value that is not > 0 otherwise). Only t: the hit record is made once per ray, for
+/* Whether the ray meets the sphere (center, r) where it first enters or leaves it
+ * (with `from` 1, a constant: the first of the two from tmin on), and the distance
+ * along the ray there in *t (> 0 for a hit in front of the origin; a value that is not
+ * > 0 otherwise). Only t: the hit record is made once per ray, for
  * the nearest primitive (tr_sphere_record). With `branches` 1 (one ray) the test skips
  * what it does not need and returns at the first miss; with 0 (a constant, in a loop
  * that runs a ray per SIMD lane: bvh_packet.h) it has no control flow: both forms of
@@ -63,7 +64,8 @@ TR_FN_INLINE real tr_sphere_c(vec3 f, vec3 o, vec3 center, real r, int branches)
  * t from the same operations. Its vectors are built from scalars (tr_sub3): the same
  * operations in the same order as vec3 arithmetic, so the same bits, but no float3
  * arithmetic, which would leave PoCL running that loop a ray at a time. */
-TR_FN_INLINE int tr_sphere_hit_at(vec3 center, real r, TrRay ray, int branches, real* t_hit) {
+TR_FN_INLINE int tr_sphere_hit_from(vec3 center, real r, TrRay ray, int branches, int from,
+                                    real tmin, real* t_hit) {
   vec3 f = tr_sub3(ray.o, center);
   real a = tr_dot(ray.d, ray.d);
   real b = -tr_dot(f, ray.d); /* b' in the chapter */
@@ -90,8 +92,12 @@ TR_FN_INLINE int tr_sphere_hit_at(vec3 center, real r, TrRay ray, int branches, 
   real t0 = c / q;
   real t1 = q / a;
   real t_near = t0 > t1 ? t1 : t0, t_far = t0 > t1 ? t0 : t1;
-  *t_hit = t_near > TR_R(0.0) ? t_near : t_far;
+  *t_hit = t_near > TR_R(0.0) && (!from || t_near >= tmin) ? t_near : t_far;
   return !miss;
+}
+
+TR_FN_INLINE int tr_sphere_hit_at(vec3 center, real r, TrRay ray, int branches, real* t_hit) {
+  return tr_sphere_hit_from(center, r, ray, branches, 0, TR_R(0.0), t_hit);
 }
 
 TR_FN_INLINE vec3 tr_sphere_center(TR_GLOBAL const TrSphere* sp) {
@@ -103,6 +109,14 @@ TR_FN_INLINE vec3 tr_sphere_center(TR_GLOBAL const TrSphere* sp) {
 TR_FN_INLINE real tr_sphere_t(TR_GLOBAL const TrSphere* sp, TrRay ray) {
   real t = TR_R(0.0);
   int hit = tr_sphere_hit_at(tr_sphere_center(sp), sp->radius, ray, 1, &t);
+  return hit ? t : TR_R(0.0);
+}
+
+/* The same from tmin on (ray queries): where the ray enters the sphere before tmin,
+ * the distance to where it leaves. */
+TR_FN_INLINE real tr_sphere_t_from(TR_GLOBAL const TrSphere* sp, TrRay ray, real tmin) {
+  real t = TR_R(0.0);
+  int hit = tr_sphere_hit_from(tr_sphere_center(sp), sp->radius, ray, 1, 1, tmin, &t);
   return hit ? t : TR_R(0.0);
 }
 

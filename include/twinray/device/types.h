@@ -115,6 +115,34 @@ typedef struct TrParams {
   int features; /* the run-time Features mask: switches inside the compiled ones */
 } TrParams;
 
+/* A ray of a user's query (ray_query.h; twinray::Ray<T> on the host): origin o,
+ * direction d (any nonzero length; t counts lengths of d), the interval [tmin, tmax]
+ * hits are looked for in, and a 32-bit mask: objects whose mask shares no bit with it
+ * are skipped. */
+typedef struct TrQueryRay {
+  real ox, oy, oz, dx, dy, dz, tmin, tmax;
+  unsigned int mask, pad0;
+} TrQueryRay;
+
+/* The closest hit of a query ray (twinray::Hit<T>): distance t along the ray, surface
+ * parameters u, v (barycentrics of vertices 1 and 2 on a triangle; ray_query.h says
+ * what they are on spheres and planes), the unit geometric normal turned toward the
+ * ray's origin; the object's index in the scene and the triangle's index in its mesh
+ * (0 for other shapes). A miss: t = +inf, object = primitive = -1, the rest 0. */
+typedef struct TrQueryHit {
+  real t, u, v, nx, ny, nz;
+  int object, primitive;
+} TrQueryHit;
+
+/* What a query adds to a hit on request (twinray::HitExtras): the unit shading normal
+ * (the geometric one where the triangle has no vertex normals), turned to the side of
+ * the geometric normal, and the texture coordinates (0 where there are none). */
+#define TR_QUERY_SHADING_NORMAL 1
+#define TR_QUERY_TEXTURE_UV 2
+typedef struct TrQueryExtras {
+  real snx, sny, snz, tex_u, tex_v, pad0;
+} TrQueryExtras;
+
 /* ---- private (never uploaded) ---- */
 
 /* Pointers into the scene buffers: one argument instead of nine. */
@@ -130,6 +158,10 @@ typedef struct TrSceneRef {
   TR_GLOBAL const TrTriangleAttr* triangle_attrs;
   TR_GLOBAL const TrTexture* textures;
   TR_GLOBAL const real* texels;
+  /* Ray queries only: each object's mask, by object index (read only with TR_F_MASKS),
+   * and each triangle's index in its mesh, in the triangles' packed order. */
+  TR_GLOBAL const unsigned int* object_masks;
+  TR_GLOBAL const int* triangle_faces;
 } TrSceneRef;
 #endif /* TR_WORKING_TYPES_ONLY */
 

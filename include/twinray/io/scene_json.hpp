@@ -317,15 +317,16 @@ class SceneReader : public JsonReader<T> {
       std::string type = choice(require(o, path, "type"), key_path(path, "type"),
                                 {"sphere", "plane", "triangle", "mesh"});
       if (type == "sphere") {
-        check_keys(o, path, {"type", "center", "radius", "material", "transform"});
+        check_keys(o, path, {"type", "center", "radius", "material", "transform", "mask"});
         Sphere<T> s;
         s.center = vector3(require(o, path, "center"), key_path(path, "center"));
         s.radius =
             scalar(require(o, path, "radius"), key_path(path, "radius"), 0.0, INFINITY, true);
         s.material = material_ref(o, path, out);
+        s.mask = read_mask(o, path);
         add_placed(o, path, Object<T>(s), out);
       } else if (type == "plane") {
-        check_keys(o, path, {"type", "point", "normal", "material", "transform"});
+        check_keys(o, path, {"type", "point", "normal", "material", "transform", "mask"});
         Plane<T> p;
         p.point = vector3(require(o, path, "point"), key_path(path, "point"));
         p.normal = vector3(require(o, path, "normal"), key_path(path, "normal"));
@@ -334,9 +335,10 @@ class SceneReader : public JsonReader<T> {
           fail(key_path(path, "normal"),
                "must be a non-zero vector of finite length, got " + show(o["normal"]));
         p.material = material_ref(o, path, out);
+        p.mask = read_mask(o, path);
         add_placed(o, path, Object<T>(p), out);
       } else if (type == "triangle") {
-        check_keys(o, path, {"type", "vertices", "material", "transform"});
+        check_keys(o, path, {"type", "vertices", "material", "transform", "mask"});
         std::string vpath = key_path(path, "vertices");
         const Json& v = require(o, path, "vertices");
         if (!v.is_array() || v.size() != 3)
@@ -345,6 +347,7 @@ class SceneReader : public JsonReader<T> {
         Triangle<T> t;
         for (size_t k = 0; k < 3; ++k) t.vertices[k] = vector3(v[k], index_path(vpath, k));
         t.material = material_ref(o, path, out);
+        t.mask = read_mask(o, path);
         add_placed(o, path, Object<T>(t), out);
       } else {
         add_placed(o, path, Object<T>(read_mesh(o, path, out)), out);
@@ -436,7 +439,7 @@ class SceneReader : public JsonReader<T> {
   Mesh<T> read_mesh(const Json& o, const std::string& path, SceneFile<T>& out) {
     check_keys(o, path,
                {"type", "vertices", "triangles", "obj", "material", "transform", "normals",
-                "crease_angle"});
+                "crease_angle", "mask"});
     Mesh<T> mesh;
     const Json* obj = optional(o, "obj");
     if (obj) {
@@ -451,7 +454,18 @@ class SceneReader : public JsonReader<T> {
       mesh.material = material_ref(o, path, out);
     }
     read_normals(o, path, mesh);
+    mesh.mask = read_mask(o, path);
     return mesh;
+  }
+
+  // `mask`: the object's 32-bit ray-query mask, an integer in [0, 2^32 - 1]; all ones
+  // where absent (docs/ray-queries.md).
+  uint32_t read_mask(const Json& o, const std::string& path) {
+    const Json* m = optional(o, "mask");
+    if (!m) return 0xffffffffu;
+    if (!m->is_number_unsigned() || m->get<unsigned long long>() > 0xffffffffull)
+      fail(key_path(path, "mask"), "must be an integer in [0, 4294967295], got " + show(*m));
+    return static_cast<uint32_t>(m->get<unsigned long long>());
   }
 
   // `normals`: "file" (the OBJ's vn where given, else flat), "flat" or "smooth" (with

@@ -65,9 +65,14 @@ struct PackedScene {
   LargeVector<typename Code::TriangleAttr> triangle_attrs;
   LargeVector<typename Code::Texture> textures;
   LargeVector<T> texels;  // every texture's linear RGB, one after the other
+  // For ray queries: each triangle's index in its mesh (0 for a lone triangle), in the
+  // triangles' order; and each object's mask, by object index, where some object's is
+  // not all ones (TR_F_MASKS), else empty.
+  LargeVector<int> triangle_faces;
+  LargeVector<unsigned> object_masks;
   glm::vec<3, T> background{T(0), T(0), T(0)};
   // Bits of the geometry: TR_F_SPHERES, TR_F_TRIANGLES, TR_F_PLANES, TR_F_BVH2/4/8,
-  // TR_F_ATTRIBUTES, TR_F_TEXTURES.
+  // TR_F_ATTRIBUTES, TR_F_TEXTURES, TR_F_MASKS.
   unsigned features = 0;
   bool any_glazed = false;  // some material has glaze > 0
 
@@ -93,7 +98,8 @@ struct PackedScene {
            planes.size() * sizeof(planes[0]) + materials.size() * sizeof(materials[0]) +
            bvh_nodes.bytes() + bvh_prims.size() * sizeof(int) +
            triangle_attrs.size() * sizeof(typename Code::TriangleAttr) +
-           textures.size() * sizeof(typename Code::Texture) + texels.size() * sizeof(T);
+           textures.size() * sizeof(typename Code::Texture) + texels.size() * sizeof(T) +
+           triangle_faces.size() * sizeof(int) + object_masks.size() * sizeof(unsigned);
   }
 };
 
@@ -131,22 +137,48 @@ struct PackedFrame {
   std::vector<typename device::Code<T>::Light> lights;
   unsigned features = 0;  // everything this scene and request use (device/features.h)
 
-  typename device::Code<T>::SceneRef ref(const PackedScene<T>& scene) const {
-    typename device::Code<T>::SceneRef s;
-    s.params = &params;
-    s.spheres = scene.spheres.data();
-    s.triangles = scene.triangles.data();
-    s.planes = scene.planes.data();
-    s.materials = scene.materials.data();
-    s.lights = lights.data();
-    s.bvh_nodes = scene.bvh_nodes.empty() ? nullptr : scene.bvh_nodes.boxes(0);
-    s.bvh_prims = scene.bvh_prims.data();
-    s.triangle_attrs = scene.triangle_attrs.data();
-    s.textures = scene.textures.data();
-    s.texels = scene.texels.data();
-    return s;
-  }
+  typename device::Code<T>::SceneRef ref(const PackedScene<T>& scene) const;
 };
+
+// The device code's view of a packed scene, with these parameters and lights.
+template <class T>
+typename device::Code<T>::SceneRef scene_ref(const PackedScene<T>& scene,
+                                             const typename device::Code<T>::Params* params,
+                                             const typename device::Code<T>::Light* lights) {
+  typename device::Code<T>::SceneRef s;
+  s.params = params;
+  s.spheres = scene.spheres.data();
+  s.triangles = scene.triangles.data();
+  s.planes = scene.planes.data();
+  s.materials = scene.materials.data();
+  s.lights = lights;
+  s.bvh_nodes = scene.bvh_nodes.empty() ? nullptr : scene.bvh_nodes.boxes(0);
+  s.bvh_prims = scene.bvh_prims.data();
+  s.triangle_attrs = scene.triangle_attrs.data();
+  s.textures = scene.textures.data();
+  s.texels = scene.texels.data();
+  s.object_masks = scene.object_masks.data();
+  s.triangle_faces = scene.triangle_faces.data();
+  return s;
+}
+
+template <class T>
+typename device::Code<T>::SceneRef PackedFrame<T>::ref(const PackedScene<T>& scene) const {
+  return scene_ref(scene, &params, lights.data());
+}
+
+// The parameters ray queries read (device/ray_query.h): the scene's counts and its
+// geometry's Features bits; no camera, no lights.
+template <class T>
+typename device::Code<T>::Params query_params(const SceneSummary<T>& ps) {
+  typename device::Code<T>::Params p{};
+  p.n_spheres = ps.n_spheres;
+  p.n_triangles = ps.n_triangles;
+  p.n_planes = ps.n_planes;
+  p.n_bvh_nodes = ps.n_bvh_nodes;
+  p.features = static_cast<int>(ps.features);
+  return p;
+}
 
 namespace detail {
 
@@ -277,6 +309,7 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
   auto store_triangle = [&](size_t to, const typename device::Code<T>::Triangle& t,
                             const Mesh<T>* m, size_t f) {
     ps.triangles[to] = t;
+    ps.triangle_faces[to] = m ? static_cast<int>(f) : 0;
     if (with_attrs && m) detail::pack_attributes(*m, f, ps.triangle_attrs[to]);
   };
   auto store_plane = [&](size_t k, const typename device::Code<T>::Plane& p) { ps.planes[k] = p; };
@@ -290,6 +323,7 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
   auto allocate_bounded = [&] {
     ps.spheres.resize(n_spheres);
     ps.triangles.resize(n_triangles);
+    ps.triangle_faces.resize(n_triangles);
     if (with_attrs) ps.triangle_attrs.resize(n_triangles);  // flags 0: flat, no uv
   };
   if (!with_bvh) {
@@ -345,6 +379,15 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
   if (!ps.planes.empty()) ps.features |= TR_F_PLANES;
   if (!ps.bvh_nodes.empty()) ps.features |= bvh::width_feature(ps.bvh_width());
   if (!ps.triangle_attrs.empty()) ps.features |= TR_F_ATTRIBUTES;
+  auto mask_of = [](const Object<T>& o) {
+    return std::visit([](const auto& x) { return x.mask; }, o);
+  };
+  for (const Object<T>& o : scene.objects)
+    if (mask_of(o) != 0xffffffffu) ps.features |= TR_F_MASKS;
+  if (ps.features & TR_F_MASKS) {
+    ps.object_masks.resize(n_objects);
+    for (size_t i = 0; i < n_objects; ++i) ps.object_masks[i] = mask_of(scene.objects[i]);
+  }
   for (const Material<T>& m : scene.materials)
     if (m.texture >= 0) ps.features |= TR_F_TEXTURES;
   return ps;
@@ -361,7 +404,7 @@ PackedScene<T> pack_scene(const Scene<T>& scene, BvhPolicy bvh) {
 // lights switch on.
 template <class T>
 unsigned features_of(const SceneSummary<T>& ps, size_t n_lights, const RenderOptions& options) {
-  unsigned f = ps.features;
+  unsigned f = ps.features & ~TR_F_MASKS;  // masks are for ray queries; renders see every object
   if (options.output == Output::Shaded) {
     bool lit = n_lights > 0;
     if (lit && (options.terms & kAmbient)) f |= TR_F_AMBIENT;

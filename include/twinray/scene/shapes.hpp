@@ -1,10 +1,12 @@
 // The primitives: Sphere<T>, Triangle<T>, Plane<T> (infinite) and Mesh<T> (indexed
 // triangles, with optional vertex normals, texture coordinates and per-triangle materials). Each
 // refers to a material by its index in Scene<T>::materials. Positions and lengths are in world
-// units; every coordinate must be finite (validate() checks).
+// units; every coordinate must be finite (validate() checks). `mask`: ray queries skip the
+// object for a ray whose mask shares no bit with it (docs/ray-queries.md); renders see it.
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <vector>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
@@ -16,6 +18,7 @@ struct Sphere {
   glm::vec<3, T> center{};
   T radius = T(1);  // > 0
   int material = 0;
+  uint32_t mask = 0xffffffffu;
 };
 
 // Two-sided: lit from whichever side is seen.
@@ -23,6 +26,7 @@ template <class T>
 struct Triangle {
   std::array<glm::vec<3, T>, 3> vertices{};
   int material = 0;
+  uint32_t mask = 0xffffffffu;
 };
 
 // The infinite plane through `point` with normal `normal` (any non-zero length).
@@ -31,6 +35,7 @@ struct Plane {
   glm::vec<3, T> point{};
   glm::vec<3, T> normal{T(0), T(1), T(0)};
   int material = 0;
+  uint32_t mask = 0xffffffffu;
 };
 
 // Indexed triangle mesh; every triangle gets the mesh's object index. Normals and
@@ -58,6 +63,8 @@ struct Mesh {
   // Empty (every triangle takes `material`) or one material index per triangle (an
   // OBJ file's `usemtl` groups).
   std::vector<int> triangle_materials;
+
+  uint32_t mask = 0xffffffffu;
 
   int material_of(size_t triangle) const {
     return triangle_materials.empty() ? material : triangle_materials[triangle];

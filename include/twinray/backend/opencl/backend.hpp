@@ -161,16 +161,8 @@ class OpenCLBackend final : public RenderBackend<T> {
     ProgramCache::Entry& program = ctx_.programs().get(options, &built_now, &build_ms);
 
     const auto t0 = clock::now();
-    const bool uploading = pending_ != nullptr;
+    const bool uploading = upload_pending_scene();
     const bool in_place = shares_host_memory();
-    if (uploading) {
-      buffers_.upload_scene(ctx_, *pending_, in_place);
-      // In place, the device reads the packed arrays themselves: keep them. Otherwise
-      // the device holds a copy, and the host's is the caller's business.
-      host_scene_ = in_place ? std::move(pending_) : nullptr;
-      pending_.reset();
-      ++scene_uploads_;
-    }
     buffers_.upload_frame(ctx_, frame);
     double transfer_ms = sample_plan::ms_since(t0);
 
@@ -232,8 +224,132 @@ class OpenCLBackend final : public RenderBackend<T> {
     }
   }
 
+  // Ray queries on rays that are already on the device: `rays` holds n Ray<T> (40 bytes
+  // each in float, 72 in double), and the answers go to `hits` (n Hit<T>) and, where
+  // `extras` asks, `extra_out` (n HitExtra<T>), or to `blocked` (n bytes, 1 or 0), as
+  // intersect() and occluded() give them. The buffers must belong to this backend's
+  // context (context().context()) and be large enough; nothing is copied to or from the
+  // host, and the call returns when the answers are in the buffers.
+  void intersect_buffers(cl_mem rays, size_t n, cl_mem hits, HitExtras extras = HitExtras::None,
+                         cl_mem extra_out = nullptr) {
+    const unsigned flags = static_cast<unsigned>(extras);
+    if (n > 0 && (!rays || !hits))
+      throw invalid_input("intersect_buffers: null rays or hits for " + std::to_string(n) +
+                          " rays");
+    if (n > 0 && flags != 0 && !extra_out)
+      throw invalid_input("intersect_buffers: extras asked for, but extra_out is null");
+    std::lock_guard<std::mutex> lock(ctx_.mutex());
+    run_query(true, rays, hits, extra_out ? extra_out : hits, flags, 0, n);
+  }
+  void occluded_buffers(cl_mem rays, size_t n, cl_mem blocked) {
+    if (n > 0 && (!rays || !blocked))
+      throw invalid_input("occluded_buffers: null rays or blocked for " + std::to_string(n) +
+                          " rays");
+    std::lock_guard<std::mutex> lock(ctx_.mutex());
+    run_query(false, rays, blocked, nullptr, 0, 0, n);
+  }
+  // The context the query buffers must belong to.
+  Context& context() { return ctx_; }
+
+  // Rays a host-side query sends to the device at a time, through buffers of that size.
+  static constexpr size_t kQueryChunk = size_t(1) << 18;
+
+ protected:
+  void intersect_rays(const Ray<T>* rays, size_t n, Hit<T>* hits, unsigned extras,
+                      HitExtra<T>* extra_out) override {
+    host_query(true, rays, n, hits, sizeof(Hit<T>), extras, extra_out);
+  }
+  void occluded_rays(const Ray<T>* rays, size_t n, uint8_t* blocked) override {
+    host_query(false, rays, n, blocked, 1, 0, nullptr);
+  }
+
  private:
   using Params = typename device::Code<T>::Params;
+
+  // Sends the scene set last to the device if it has not gone yet; whether it went now.
+  bool upload_pending_scene() {
+    if (!pending_) return false;
+    const bool in_place = shares_host_memory();
+    buffers_.upload_scene(ctx_, *pending_, in_place);
+    // In place, the device reads the packed arrays themselves: keep them. Otherwise
+    // the device holds a copy, and the host's is the caller's business.
+    host_scene_ = in_place ? std::move(pending_) : nullptr;
+    pending_.reset();
+    ++scene_uploads_;
+    return true;
+  }
+
+  // A host-side query: the rays go to the device kQueryChunk at a time through fixed
+  // buffers, and each chunk's answers (out_size bytes a ray, and the extras) come back
+  // before the next goes.
+  void host_query(bool closest, const Ray<T>* rays, size_t n, void* out, size_t out_size,
+                  unsigned extras, HitExtra<T>* extra_out) {
+    require_scene(has_scene_);
+    std::lock_guard<std::mutex> lock(ctx_.mutex());
+    if (n == 0) return;
+    const size_t chunk = std::min(n, kQueryChunk);
+    query_rays_.reserve(ctx_.context(), CL_MEM_READ_ONLY, chunk * sizeof(Ray<T>),
+                        "clCreateBuffer (query rays)");
+    query_out_.reserve(ctx_.context(), CL_MEM_WRITE_ONLY, chunk * out_size,
+                       "clCreateBuffer (query answers)");
+    if (extras != 0)
+      query_extras_.reserve(ctx_.context(), CL_MEM_WRITE_ONLY, chunk * sizeof(HitExtra<T>),
+                            "clCreateBuffer (query extras)");
+    for (size_t first = 0; first < n; first += chunk) {
+      const size_t count = std::min(chunk, n - first);
+      check(clEnqueueWriteBuffer(ctx_.queue(), query_rays_.mem(), CL_FALSE, 0,
+                                 count * sizeof(Ray<T>), rays + first, 0, nullptr, nullptr),
+            "clEnqueueWriteBuffer (query rays)");
+      run_query(closest, query_rays_.mem(), query_out_.mem(),
+                extras != 0 ? query_extras_.mem() : query_out_.mem(), extras, 0, count);
+      check(clEnqueueReadBuffer(ctx_.queue(), query_out_.mem(), CL_TRUE, 0, count * out_size,
+                                static_cast<char*>(out) + first * out_size, 0, nullptr, nullptr),
+            "clEnqueueReadBuffer (query answers)");
+      if (extras != 0)
+        check(clEnqueueReadBuffer(ctx_.queue(), query_extras_.mem(), CL_TRUE, 0,
+                                  count * sizeof(HitExtra<T>), extra_out + first, 0, nullptr,
+                                  nullptr),
+              "clEnqueueReadBuffer (query extras)");
+    }
+  }
+
+  // Runs the intersect (closest) or occluded kernel over rays [first, end) of the
+  // device buffers, in launches of at most 2^24 work-items (the global offset says
+  // where each starts), and waits for it. The caller holds the context's lock.
+  void run_query(bool closest, cl_mem rays, cl_mem out, cl_mem extras, unsigned extra_flags,
+                 size_t first, size_t end) {
+    require_scene(has_scene_);
+    if (first >= end) return;
+    upload_pending_scene();
+    buffers_.upload_params(ctx_, query_params(scene_));
+    bool built = false;
+    double ms = 0;
+    ProgramCache::Entry& program = ctx_.programs().get(
+        build_options(ctx_.info(), scene_.features, sizeof(T) == 8, TR_ENTRY_QUERY, true), &built,
+        &ms);
+    Kernels kernels(program.program, {closest ? "tr_kernel_intersect" : "tr_kernel_occluded"});
+    cl_kernel k = kernels[0];
+    set_scene_args(k);
+    cl_uint arg = kSceneArgs;
+    set_arg(k, arg++, sizeof(cl_mem), &rays);
+    set_arg(k, arg++, sizeof(cl_mem), &out);
+    if (closest) {
+      cl_int flags = static_cast<cl_int>(extra_flags);
+      set_arg(k, arg++, sizeof(cl_mem), &extras);
+      set_arg(k, arg++, sizeof flags, &flags);
+    }
+    cl_ulong last = end;
+    set_arg(k, arg, sizeof last, &last);
+    const size_t local = 64, piece = size_t(1) << 24;
+    for (size_t at = first; at < end; at += piece) {
+      size_t count = std::min(piece, end - at);
+      size_t global = (count + local - 1) / local * local;
+      check(clEnqueueNDRangeKernel(ctx_.queue(), k, 1, &at, &global, &local, 0, nullptr, nullptr),
+            "clEnqueueNDRangeKernel (ray query)");
+    }
+    check(clFinish(ctx_.queue()), "clFinish");
+    ctx_.programs().save_binary(program);
+  }
 
   // Work-items in side x side work-groups. Pixel kernels use 8x8 on every device:
   // neighbouring rays meet the same nodes and primitives, and on PoCL square tiles beat
@@ -341,6 +457,7 @@ class OpenCLBackend final : public RenderBackend<T> {
   long long scene_uploads_ = 0;
   SceneBuffers buffers_;
   Buffer output_, stats_, flags_, pixels_;
+  Buffer query_rays_, query_out_, query_extras_;
 };
 
 }  // namespace opencl

@@ -74,8 +74,8 @@ class Buffer {
 
 // The buffers every kernel in kernels/render.cl takes as its first arguments, in this
 // order: params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims,
-// triangle_attrs, textures, texels.
-constexpr cl_uint kSceneArgs = 11;
+// triangle_attrs, textures, texels, object_masks, triangle_faces.
+constexpr cl_uint kSceneArgs = 13;
 
 class SceneBuffers {
  public:
@@ -100,6 +100,15 @@ class SceneBuffers {
     put(triangle_attrs_, ps.triangle_attrs);
     put(textures_, ps.textures);
     put(texels_, ps.texels);
+    put(object_masks_, ps.object_masks);
+    put(triangle_faces_, ps.triangle_faces);
+  }
+
+  // The parameters of ray queries (query_params); no lights.
+  template <class Params>
+  void upload_params(const Context& ctx, const Params& params) {
+    params_.write(ctx, CL_MEM_READ_ONLY, &params, sizeof params, "clCreateBuffer (parameters)");
+    lights_.reserve(ctx.context(), CL_MEM_READ_ONLY, 0, "clCreateBuffer (lights)");
   }
 
   // A render's parameters and lights.
@@ -114,13 +123,14 @@ class SceneBuffers {
   std::array<cl_mem, kSceneArgs> args() const {
     return {params_.mem(),         spheres_.mem(),  triangles_.mem(), planes_.mem(),
             materials_.mem(),      lights_.mem(),   bvh_nodes_.mem(), bvh_prims_.mem(),
-            triangle_attrs_.mem(), textures_.mem(), texels_.mem()};
+            triangle_attrs_.mem(), textures_.mem(), texels_.mem(),    object_masks_.mem(),
+            triangle_faces_.mem()};
   }
   cl_mem params() const { return params_.mem(); }
 
  private:
   Buffer params_, spheres_, triangles_, planes_, materials_, lights_, bvh_nodes_, bvh_prims_,
-      triangle_attrs_, textures_, texels_;
+      triangle_attrs_, textures_, texels_, object_masks_, triangle_faces_;
 };
 
 }  // namespace opencl

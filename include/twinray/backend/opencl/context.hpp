@@ -55,7 +55,7 @@ class Context {
     cl_int err = CL_SUCCESS;
     cl_kernel kernel = clCreateKernel(entry.program, "tr_kernel_layout_sizes", &err);
     check(err, "clCreateKernel");
-    std::vector<int> sizes(9, 0);
+    std::vector<int> sizes(12, 0);
     cl_mem out =
         clCreateBuffer(context_, CL_MEM_WRITE_ONLY, sizes.size() * sizeof(int), nullptr, &err);
     if (err != CL_SUCCESS) clReleaseKernel(kernel);
