@@ -407,3 +407,32 @@ TEST_CASE("OBJ: statements twinray does not read are passed over") {
   CHECK(mesh.triangles.size() == 1);
   CHECK(mesh.triangle_materials.empty());
 }
+
+TEST_CASE("mask: an object's ray-query mask, all ones where absent") {
+  std::string text = with_object(
+      R"({ "type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m", "mask": 6 },
+         { "type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "material": "m", "mask": 0 },
+         { "type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "material": "m",
+           "mask": 4294967295 })");
+  text.replace(text.find(R"("material": "m" })"), 17, R"("material": "m", "mask": 9 })");
+  auto f = twinray::io::parse_scene<float>(text, "scene.json");
+  REQUIRE(f.scene.objects.size() == 4);
+  auto mask = [&](size_t i) {
+    return std::visit([](const auto& o) { return o.mask; }, f.scene.objects[i]);
+  };
+  CHECK(mask(0) == 6u);
+  CHECK(mask(1) == 0u);
+  CHECK(mask(2) == 0xffffffffu);
+  CHECK(mask(3) == 9u);  // the mesh
+  auto plain = twinray::io::parse_scene<float>(kSmall, "scene.json");
+  CHECK(std::get<twinray::Mesh<float>>(plain.scene.objects[0]).mask == 0xffffffffu);
+  for (const char* bad : {"-1", "4294967296", "1.5", "\"7\"", "true"}) {
+    CAPTURE(bad);
+    std::string sphere = with_object(
+        std::string(R"({ "type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m", )") +
+        R"("mask": )" + bad + " }");
+    CHECK(error_of([&] { twinray::io::parse_scene<float>(sphere, "scene.json"); }) ==
+          std::string("scene.json: objects[0].mask: must be an integer in [0, 4294967295], got ") +
+              bad);
+  }
+}
