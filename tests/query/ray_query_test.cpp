@@ -416,7 +416,7 @@ std::vector<Ray<T>> rays_at_vertices_and_edges(const Mesh<T>& m, T reach, int pe
     const glm::dvec3 n = outward(glm::dvec3(p));
     for (int k = 0; k < per_point; ++k) {
       glm::dvec3 w;
-      do w = glm::dvec3(u(rng), u(rng), u(rng));
+      do w = query_test::draw3<double>(u, rng);
       while (glm::dot(w, w) > 1.0 || glm::dot(glm::normalize(w + n * 1.2), n) < 0.5);
       glm::dvec3 dir = glm::normalize(w + n * 1.2);
       vec3<T> origin = vec3<T>(glm::dvec3(p) + dir * double(reach));

@@ -290,7 +290,10 @@ TR_FN_INLINE int tr_walk_next(unsigned inner, const real* t_entry, TR_GLOBAL con
  * tie, and is kept). Any order would give the same result (tr_offer_hit); nearest first
  * only saves work. Stack: at most W - 1 entries per inner node on the path
  * (TR_BVH_STACK_SIZE). The triangle test's view of the ray is made at the first leaf:
- * many rays miss every box. */
+ * many rays miss every box. With `query` 1 (a constant: ray queries, ray_query.h) the
+ * leaves take hits in [tmin, nearest->t] in tr_query_precedes's order and skip the
+ * objects ray_mask excludes; the renderer passes 0, which leaves none of that in its
+ * walk. */
 TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nearest, int any_hit,
                                   int W, int query, real tmin, unsigned int ray_mask) {
   if (s->params->n_bvh_nodes <= 0) return 0;
