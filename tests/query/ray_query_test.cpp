@@ -185,6 +185,28 @@ TEST_CASE_TEMPLATE("ties go to the smallest (object, primitive), whatever the BV
     }
 }
 
+TEST_CASE_TEMPLATE("a tie goes to the lower object index, not to the engine's primitive order", T,
+                   float, double) {
+  // A plane (object 0) and a triangle (object 1) in y = 2: rays straight down hit both
+  // at t = 1 exactly. The engine numbers planes after triangles, so an order by its own
+  // primitive ids would report the triangle.
+  Scene<T> s;
+  s.materials.push_back({});
+  s.add(Plane<T>{vec3<T>(0, 2, 0), vec3<T>(0, 1, 0), 0});
+  s.add(Triangle<T>{{vec3<T>(-4, 2, -4), vec3<T>(4, 2, -4), vec3<T>(0, 2, 4)}, 0});
+  std::vector<Ray<T>> rays;
+  for (int i = 0; i < 16; ++i)
+    rays.push_back(
+        make_ray<T>(vec3<T>(T(i % 4 - 2) * T(0.5), 3, T(i / 4 - 2) * T(0.5)), vec3<T>(0, -1, 0)));
+  for (Backend kind : backends()) {
+    auto b = backend_on<T>(kind, packed(s, 4, BvhPolicy::Never));
+    for (const auto& h : hits_of(*b, rays)) {
+      CHECK(h.t == T(1));
+      CHECK(h.object == 0);
+    }
+  }
+}
+
 TEST_CASE_TEMPLATE("answers do not depend on batch, order, threads, BVH width or backend", T, float,
                    double) {
   const Scene<T> s = query_test::mixed_scene<T>(11u);
