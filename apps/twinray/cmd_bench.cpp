@@ -11,6 +11,7 @@
 // the primitive count of the spheres_<N> and mesh_<N> scenes (gnuplot).
 #include <algorithm>
 #include <cstdio>
+#include <ctime>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -38,6 +39,7 @@ struct BenchArgs {
   int rounds = 3;
   bool interleave = false;  // the backends' timed frames alternate in one loop
   std::string plot;         // a PNG of the cost per ray against the primitive count
+  bool markdown = false;    // with --against: a Markdown table and its caption, not CSV
 };
 
 bool is_builtin(const std::string& name) {
@@ -162,6 +164,129 @@ void write_plot(const std::string& png, const std::map<std::string, std::vector<
   std::cerr << "twinray: wrote " << png << "\n";
 }
 
+// One scene's figures from the interleaved rounds: medians over the rounds, the ratios
+// taken within each round. A figure of a backend that was not run is 0.
+struct SceneSummary {
+  std::string scene, other_backend;
+  std::string size;  // "1920x1080, 1 spp"
+  long long rays = 0;
+  double cpu_ms = 0, opencl_ms = 0, other_ms = 0;
+  double cpu_over_other = 0, cpu_over_other_min = 0, cpu_over_other_max = 0;
+  double opencl_over_cpu = 0;
+  double cpu_build_ms = 0, other_build_ms = 0, cpu_build_over_other = 0;
+};
+
+// A figure, or "" where it was not measured.
+std::string figure(double v, const char* format) {
+  char text[64] = "";
+  if (v > 0) std::snprintf(text, sizeof text, format, v);
+  return text;
+}
+
+void print_csv(const std::vector<SceneSummary>& rows) {
+  std::cout << "scene,rays,twinray_cpu_ms,twinray_opencl_ms,comparator_ms,comparator_backend,"
+               "cpu_over_comparator,cpu_over_comparator_min,cpu_over_comparator_max,"
+               "opencl_over_cpu,twinray_cpu_build_ms,comparator_build_ms,"
+               "cpu_build_over_comparator"
+            << std::endl;
+  for (const SceneSummary& r : rows)
+    std::cout << r.scene << ',' << r.rays << ',' << figure(r.cpu_ms, "%.1f") << ','
+              << figure(r.opencl_ms, "%.1f") << ',' << figure(r.other_ms, "%.1f") << ','
+              << r.other_backend << ',' << figure(r.cpu_over_other, "%.3f") << ','
+              << figure(r.cpu_over_other_min, "%.3f") << ',' << figure(r.cpu_over_other_max, "%.3f")
+              << ',' << figure(r.opencl_over_cpu, "%.3f") << ',' << figure(r.cpu_build_ms, "%.1f")
+              << ',' << figure(r.other_build_ms, "%.1f") << ','
+              << figure(r.cpu_build_over_other, "%.3f") << std::endl;
+}
+
+// The compiler that built this program, as its predefined macros name it.
+std::string compiler_description() {
+#if defined(__clang__)
+  std::string version = __clang_version__;
+  version.erase(version.find_last_not_of(' ') + 1);
+  return "clang++ " + version;
+#elif defined(__GNUC__)
+  return std::string("g++ ") + __VERSION__;
+#else
+  return "an unknown compiler";
+#endif
+}
+
+// The widest vector ISA this program was compiled for: what its CPU backend runs.
+const char* compiled_isa() {
+#if defined(__AVX512F__)
+  return "AVX-512";
+#elif defined(__AVX2__)
+  return "AVX2";
+#elif defined(__AVX__)
+  return "AVX";
+#elif defined(__SSE2__) || defined(__x86_64__)
+  return "SSE2";
+#else
+  return "no x86 SIMD";
+#endif
+}
+
+// The options of this run as a command line that repeats it.
+std::string command_line(const BenchArgs& a) {
+  std::ostringstream c;
+  c << "twinray bench";
+  if (!a.scene.empty()) c << ' ' << a.scene;
+  c << " --against " << a.against << " --rounds " << a.rounds << " --runs " << a.runs
+    << " --backend " << a.backend;
+  if (a.interleave) c << " --interleave";
+  if (a.width > 0) c << " --width " << a.width;
+  if (a.height > 0) c << " --height " << a.height;
+  if (a.spp > 0) c << " --spp " << a.spp;
+  if (a.threads > 0) c << " --threads " << a.threads;
+  if (a.bvh != "auto") c << " --bvh " << a.bvh;
+  if (a.bvh_width > 0) c << " --bvh-width " << a.bvh_width;
+  if (a.obj_dir != ".") c << " --obj-dir " << a.obj_dir;
+  c << " --markdown";
+  return c.str();
+}
+
+// The table of docs/performance.md's "At a glance": a caption that names the machine,
+// the compilers and the command, then one row per scene.
+void print_markdown(const BenchArgs& a, const std::vector<SceneSummary>& rows,
+                    const twinray_bench::Config& config) {
+  const std::string program = a.against.substr(a.against.find_last_of('/') + 1);
+  char date[32] = "";
+  const std::time_t now = std::time(nullptr);
+  std::strftime(date, sizeof date, "%Y-%m-%d", std::gmtime(&now));
+  const SceneSummary* first = rows.empty() ? nullptr : &rows.front();
+  std::cout << "Measured " << date << " on " << twinray_bench::machine_description()
+            << "; twinray built by " << compiler_description() << " for " << compiled_isa() << ", "
+            << twinray::thread_count() << " threads, float"
+            << (first ? ", " + first->size : std::string()) << "; against `" << program << "` in "
+            << a.rounds << (a.rounds == 1 ? " round" : " interleaved rounds") << " of " << a.runs
+            << (a.runs == 1 ? " frame" : " frames")
+            << " per scene and system (medians; ratios taken within each round"
+            << (config.interleave ? ", OpenCL / CPU per step of frames interleaved" : "")
+            << "; build: `pack_scene` against the comparator's geometry set-up and commit). "
+               "Command: `"
+            << command_line(a) << "`.\n\n";
+  std::cout << "| scene | rays per frame | twinray CPU ms | twinray OpenCL ms | " << program
+            << " ms (mode) | CPU / " << program << " (rounds) | OpenCL / CPU | build, CPU / "
+            << program << " |\n";
+  std::cout << "|---|---:|---:|---:|---:|---:|---:|---:|\n";
+  for (const SceneSummary& r : rows) {
+    std::string range = r.cpu_over_other_min > 0
+                            ? " (" + figure(r.cpu_over_other_min, "%.3f") + "-" +
+                                  figure(r.cpu_over_other_max, "%.3f") + ")"
+                            : "";
+    std::string build = r.cpu_build_over_other > 0 ? figure(r.cpu_build_over_other, "%.2f") + " (" +
+                                                         figure(r.cpu_build_ms, "%.1f") + " / " +
+                                                         figure(r.other_build_ms, "%.1f") + " ms)"
+                                                   : "";
+    std::cout << "| " << r.scene << " | " << r.rays << " | " << figure(r.cpu_ms, "%.1f") << " | "
+              << figure(r.opencl_ms, "%.1f") << " | " << figure(r.other_ms, "%.1f")
+              << (r.other_backend.empty() ? "" : " (" + r.other_backend + ")") << " | "
+              << figure(r.cpu_over_other, "%.3f") << range << " | "
+              << figure(r.opencl_over_cpu, "%.3f") << " | " << build << " |" << std::endl;
+  }
+}
+
 // Interleaved rounds of twinray and the comparison program; the ratios on stdout. The
 // order alternates from round to round (twinray's backends, then the comparator; then
 // the comparator, then the backends in reverse), so that no side always runs right
@@ -178,6 +303,7 @@ int run_compare(const BenchArgs& a, const std::vector<std::string>& scenes,
     std::vector<double> cpu_build, other_build, cpu_build_over_other;  // per round
     long long rays = 0, primitives = 0;
     std::string other_backend;
+    std::string size;  // the frame's size and samples per pixel
   };
   std::map<std::string, Sample> samples;
   std::vector<std::string> systems;
@@ -203,6 +329,8 @@ int run_compare(const BenchArgs& a, const std::vector<std::string>& scenes,
           opencl = row.median_ms, opencl_per_step = row.over_cpu_per_step;
         s.rays = row.rays;
         s.primitives = row.primitives;
+        s.size = std::to_string(row.width) + "x" + std::to_string(row.height) + ", " +
+                 std::to_string(row.spp) + " spp";
       }
       if (!comparator_first) other = run_against(a, name);
       s.ms["comparator"].push_back(other.median_ms);
@@ -218,11 +346,7 @@ int run_compare(const BenchArgs& a, const std::vector<std::string>& scenes,
       }
     }
   systems.push_back("comparator");
-  std::cout << "scene,rays,twinray_cpu_ms,twinray_opencl_ms,comparator_ms,comparator_backend,"
-               "cpu_over_comparator,cpu_over_comparator_min,cpu_over_comparator_max,"
-               "opencl_over_cpu,twinray_cpu_build_ms,comparator_build_ms,"
-               "cpu_build_over_comparator"
-            << std::endl;
+  std::vector<SceneSummary> summaries;
   std::map<std::string, std::vector<double>> ns_per_ray;
   std::map<std::string, long long> primitives;
   for (const std::string& name : scenes) {
@@ -231,30 +355,33 @@ int run_compare(const BenchArgs& a, const std::vector<std::string>& scenes,
       auto it = s.ms.find(system);
       return it == s.ms.end() ? 0.0 : report::median(it->second);
     };
-    double cpu = ms("twinray-cpu"), cl = ms("twinray-opencl"), other = ms("comparator");
-    auto [lo, hi] = s.cpu_over_other.empty()
-                        ? std::pair<double, double>(0, 0)
-                        : std::pair<double, double>(
-                              *std::min_element(s.cpu_over_other.begin(), s.cpu_over_other.end()),
-                              *std::max_element(s.cpu_over_other.begin(), s.cpu_over_other.end()));
-    // A figure of a backend that was not run is left empty.
-    auto field = [](double v, const char* format) {
-      char text[64] = "";
-      if (v > 0) std::snprintf(text, sizeof text, format, v);
-      return std::string(text);
-    };
-    std::cout << name << ',' << s.rays << ',' << field(cpu, "%.1f") << ',' << field(cl, "%.1f")
-              << ',' << field(other, "%.1f") << ',' << s.other_backend << ','
-              << field(report::median(s.cpu_over_other), "%.3f") << ',' << field(lo, "%.3f") << ','
-              << field(hi, "%.3f") << ',' << field(report::median(s.opencl_over_cpu), "%.3f") << ','
-              << field(report::median(s.cpu_build), "%.1f") << ','
-              << field(report::median(s.other_build), "%.1f") << ','
-              << field(report::median(s.cpu_build_over_other), "%.3f") << std::endl;
+    SceneSummary r;
+    r.scene = name;
+    r.size = s.size;
+    r.rays = s.rays;
+    r.cpu_ms = ms("twinray-cpu");
+    r.opencl_ms = ms("twinray-opencl");
+    r.other_ms = ms("comparator");
+    r.other_backend = s.other_backend;
+    r.cpu_over_other = report::median(s.cpu_over_other);
+    if (!s.cpu_over_other.empty()) {
+      r.cpu_over_other_min = *std::min_element(s.cpu_over_other.begin(), s.cpu_over_other.end());
+      r.cpu_over_other_max = *std::max_element(s.cpu_over_other.begin(), s.cpu_over_other.end());
+    }
+    r.opencl_over_cpu = report::median(s.opencl_over_cpu);
+    r.cpu_build_ms = report::median(s.cpu_build);
+    r.other_build_ms = report::median(s.other_build);
+    r.cpu_build_over_other = report::median(s.cpu_build_over_other);
+    summaries.push_back(r);
     primitives[name] = s.primitives;
     for (const auto& [system, values] : s.ms)
       for (double v : values)
         if (s.rays > 0) ns_per_ray[system + "|" + name].push_back(v * 1e6 / double(s.rays));
   }
+  if (a.markdown)
+    print_markdown(a, summaries, config);
+  else
+    print_csv(summaries);
   if (!a.plot.empty()) {
     std::string program = a.against.substr(a.against.find_last_of('/') + 1);
     write_plot(a.plot, ns_per_ray, primitives, systems, program);
@@ -296,6 +423,7 @@ int run_bench(const BenchArgs& a) {
     return run_compare(a, scenes, backends, config);
   }
   if (!a.plot.empty()) usage_error("--plot: give --against too (it plots both systems)");
+  if (a.markdown) usage_error("--markdown: give --against too (it prints the comparison's table)");
   std::cout << twinray_bench::csv_header() << std::endl;
   for (const std::string& name : scenes)
     for (const std::string& precision : precisions) {
@@ -347,6 +475,9 @@ const Command kBench(
                      "ratios as CSV");
       app.add_option("--rounds", a->rounds, "rounds with --against (default 3)")
           ->check(CLI::Range(1, 100));
+      app.add_flag("--markdown", a->markdown,
+                   "with --against: a Markdown table with a caption naming the machine, the "
+                   "compiler and this command, instead of CSV");
       app.add_option("--plot", a->plot,
                      "with --against: a PNG of the cost per ray against N (gnuplot)");
       return [a] { return run_bench(*a); };

@@ -804,6 +804,23 @@ TEST_CASE("bench --against: interleaved rounds, and CPU over the comparator's fa
   CHECK(bench({"demo", "--precision", "double", "--against", fake_comparator(dir, "ok")}).status ==
         2);
   CHECK(bench({"demo", "--plot", "p.png"}).status == 2);
+  CHECK(bench({"demo", "--markdown"}).status == 2);
+
+  // --markdown: the same figures as a table, under a caption that names the machine,
+  // the compiler and the command that repeats the run.
+  r = bench({"demo", "--backend", "cpu", "--rounds", "1", "--against", fake_comparator(dir, "ok"),
+             "--markdown"});
+  REQUIRE(r.status == 0);
+  CHECK(!contains(r.out, "scene,rays,"));
+  CHECK(contains(r.out, "Measured "));
+  CHECK(contains(r.out, " hardware threads"));
+  CHECK(contains(r.out, "twinray built by "));
+  CHECK(contains(r.out, "192x108, 1 spp"));
+  CHECK(contains(r.out, "Command: `twinray bench demo --against "));
+  CHECK(contains(r.out, "--rounds 1 --runs 1 --backend cpu --width 192 --height 108 --markdown`"));
+  CHECK(contains(r.out, "| scene | rays per frame | twinray CPU ms |"));
+  const std::string md_row = r.out.substr(r.out.find("\n| demo |") + 1);
+  CHECK(contains(md_row.substr(0, md_row.find('\n')), "| 2.0 (fake-fast) |"));
 
   // A scene with a BVH, one round: the build columns, and the cost-per-ray plot where
   // gnuplot is installed (scripts/packages.txt has it).

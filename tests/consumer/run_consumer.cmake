@@ -101,15 +101,18 @@ if(MODE STREQUAL "installed")
   # Version and components: what find_package must accept and refuse.
   set(check ${CMAKE_COMMAND} -S ${CMAKE_CURRENT_LIST_DIR}/version_check -G ${GENERATOR}
       ${compiler_args} -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF)
-  step("find_package(twinray 0.1) core only" 0 ${check} -B ${WORK_DIR}/vc1 -DWANT_VERSION=0.1
+  # 0.x: only the installed minor version (0.2) is accepted, older or newer.
+  step("find_package(twinray 0.2) core only" 0 ${check} -B ${WORK_DIR}/vc1 -DWANT_VERSION=0.2
        "-DEXPECT_TARGETS=twinray::twinray")
   step("find_package(twinray) without components loads all" 0 ${check} -B ${WORK_DIR}/vc2
        "-DEXPECT_TARGETS=twinray::twinray;twinray::opencl;twinray::io")
-  step("find_package(twinray 0.2) is refused" fail ${check} -B ${WORK_DIR}/vc3
-       -DWANT_VERSION=0.2)
-  step("find_package(twinray 1.0) is refused" fail ${check} -B ${WORK_DIR}/vc4
+  step("find_package(twinray 0.3) is refused" fail ${check} -B ${WORK_DIR}/vc3
+       -DWANT_VERSION=0.3)
+  step("find_package(twinray 0.1) is refused" fail ${check} -B ${WORK_DIR}/vc4
+       -DWANT_VERSION=0.1)
+  step("find_package(twinray 1.0) is refused" fail ${check} -B ${WORK_DIR}/vc5
        -DWANT_VERSION=1.0)
-  step("find_package(twinray COMPONENTS vulkan) is refused" fail ${check} -B ${WORK_DIR}/vc5
+  step("find_package(twinray COMPONENTS vulkan) is refused" fail ${check} -B ${WORK_DIR}/vc6
        -DWANT_COMPONENTS=vulkan)
   string(FIND "${step_output}" "no such component" at)
   if(at EQUAL -1)

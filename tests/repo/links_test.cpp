@@ -10,16 +10,19 @@
 #include <doctest/doctest.h>
 
 #include <filesystem>
-#include <fstream>
 #include <regex>
 #include <set>
-#include <sstream>
 #include <string>
 #include <vector>
+
+#include "source_text.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
+
+using repo_text::comments_of;
+using repo_text::read;
 
 const fs::path kRoot = TWINRAY_SOURCE_DIR;
 
@@ -28,13 +31,6 @@ const std::vector<std::string> kTopFolders = {"include", "apps",  "examples", "b
                                               "scripts", "fuzz",  ".ci"};
 const std::vector<std::string> kLibraryFolders = {"device", "core",    "scene",
                                                   "pack",   "backend", "io"};
-
-std::string read(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 bool skipped_dir(const fs::path& p) {
   const std::string name = p.filename().string();
@@ -91,36 +87,6 @@ bool exists_in_repo(const std::string& path, const fs::path& from_dir, bool shor
   if (short_forms && fs::exists(kRoot / "include" / "twinray" / path)) return true;
   if (fs::exists(from_dir / path)) return true;
   return false;
-}
-
-// The comments of a source file: // and /* */ in C-like files, # in CMake and shell.
-std::string comments_of(const fs::path& p) {
-  const std::string text = read(p);
-  const std::string ext = p.extension().string();
-  std::string out;
-  if (ext == ".cmake" || ext == ".sh" || ext == ".txt" || p.filename() == "run") {
-    std::istringstream in(text);
-    for (std::string line; std::getline(in, line);) {
-      size_t hash = line.find('#');
-      if (hash != std::string::npos) out += line.substr(hash + 1) + "\n";
-    }
-    return out;
-  }
-  for (size_t i = 0; i < text.size(); ++i) {
-    if (text.compare(i, 2, "//") == 0) {
-      size_t end = text.find('\n', i);
-      out += text.substr(i + 2, end == std::string::npos ? std::string::npos : end - i - 2) + "\n";
-      i = end == std::string::npos ? text.size() : end;
-    } else if (text.compare(i, 2, "/*") == 0) {
-      size_t end = text.find("*/", i + 2);
-      out += text.substr(i + 2, end == std::string::npos ? std::string::npos : end - i - 2) + "\n";
-      i = end == std::string::npos ? text.size() : end + 1;
-    } else if (text[i] == '"') {  // skip string literals: "//" inside them is no comment
-      for (++i; i < text.size() && text[i] != '"' && text[i] != '\n'; ++i)
-        if (text[i] == '\\') ++i;
-    }
-  }
-  return out;
 }
 
 // Relative link targets of a Markdown text: [text](target) and <img src="target">.

@@ -14,6 +14,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <functional>
 #include <iostream>
@@ -22,6 +23,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <twinray/twinray.hpp>
@@ -107,10 +109,31 @@ inline std::string read_first(const std::string& file, const std::string& key) {
   return "";
 }
 
+// The CPU as /proc/cpuinfo names it (model name; family and model, which tell the
+// generation where a virtual machine reports only "AMD EPYC"), the widest vector ISA it
+// offers, its hardware threads and the memory.
 inline std::string machine_description() {
   std::ostringstream s;
-  s << read_first("/proc/cpuinfo", "model name") << ", " << std::thread::hardware_concurrency()
-    << " hardware threads, " << read_first("/proc/meminfo", "MemTotal");
+  s << read_first("/proc/cpuinfo", "model name");
+  const std::string family = read_first("/proc/cpuinfo", "cpu family");
+  const std::string model = read_first("/proc/cpuinfo", "model\t");
+  if (!family.empty())
+    s << " (family " << family << (model.empty() ? "" : ", model " + model) << ")";
+  const std::string flags = " " + read_first("/proc/cpuinfo", "flags") + " ";
+  const std::pair<const char*, const char*> isas[] = {
+      {"avx512f", "AVX-512"}, {"avx2", "AVX2"}, {"avx", "AVX"}, {"sse2", "SSE2"}};
+  for (const auto& [flag, isa] : isas)
+    if (flags.find(std::string(" ") + flag + " ") != std::string::npos) {
+      s << ", " << isa;
+      break;
+    }
+  s << ", " << std::thread::hardware_concurrency() << " hardware threads";
+  const double memory_kib = std::atof(read_first("/proc/meminfo", "MemTotal").c_str());
+  if (memory_kib > 0) {
+    char gib[32];
+    std::snprintf(gib, sizeof gib, ", %.0f GiB", memory_kib / (1024.0 * 1024.0));
+    s << gib;
+  }
   return s.str();
 }
 

@@ -59,8 +59,8 @@
 
 /* Under clang on an AVX-512 CPU (PoCL's kernels, and host code that clang compiles): a
  * packet's 16-ray group loops in 16 lanes, one 512-bit register each, as g++ makes
- * them. LLVM 15 would pick 8 lanes for `skylake-avx512`: PoCL frames 0.90 (mesh_1e6) to
- * 0.98 of the time with 8 (docs/performance.md). */
+ * them. LLVM 15 would pick 8 lanes for `skylake-avx512`, which render PoCL's frames
+ * slower (bench/twinray_bench.cpp, docs/performance.md). */
 #if defined(__clang__) && defined(__AVX512F__)
 #define TR_WIDE_VECTORS __attribute__((min_vector_width(512)))
 #define TR_LANE_LOOP _Pragma("clang loop vectorize_width(16)")
@@ -201,13 +201,10 @@ inline long long& ray_counter() {
  * holds at least this many of the rays that entered the leaf, and one ray at a time
  * otherwise (tr_packet_leaf). Where a register holds 16 floats (AVX-512) the lanes cost
  * one vector per test and win from one ray on. Where it holds 8 (AVX2) they cost two,
- * and win from a quarter of a group: built for AVX2 and run on a Zen 4 class EPYC,
- * mesh_1e6 frames took 0.88 of the time with 4 rays that they took with 8 (1 ray: the
- * same as 4), and on a Zen 5 class one 4 did better than 8 and than 1. AMD's first Zen
- * (__znver1__) splits each 256-bit operation in two, and there 8 did best (4: mesh_1e6
- * 2% slower, 1: 15%). With SSE's 4 lanes they pay for full groups only. The scalar
- * tests leave at their first failed check (docs/performance.md, "Other measured
- * changes"). */
+ * and win from a quarter of a group. A `znver1` CPU splits each 256-bit operation in
+ * two, and there full groups do best. With SSE's 4 lanes they pay for full groups only.
+ * The scalar tests leave at their first failed check. Measured with mesh_1e6
+ * (bench/twinray_bench.cpp, docs/performance.md, "Other measured changes"). */
 #ifndef TR_LANE_GROUP_MIN_RAYS
 #if defined(__AVX512F__)
 #define TR_LANE_GROUP_MIN_RAYS 1

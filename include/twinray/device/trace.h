@@ -87,9 +87,8 @@ TR_FN_INLINE void tr_tiled_block(int index, int blocks_x, int blocks_y, int* bx,
  * per pixel, the grid's position (the same in every pixel) found once, and the rays of
  * a row computed a pixel per SIMD lane. The packet's arrays, which hold nothing between
  * queries (tr_packet_begin fills them), serve as the row's scratch: the sample
- * positions in ix and iy, the rays in ox .. dz. mesh_1e6 frames took 0.96 of the time
- * on an AVX2 EPYC, where the camera rays, with four integer divisions per pixel, had
- * taken 7% of the frame (docs/performance.md). */
+ * positions in ix and iy, the rays in ox .. dz. Made pixel by pixel, with four integer
+ * divisions each, the camera rays took 7% of a mesh_1e6 frame (docs/performance.md). */
 TR_FN_INLINE void tr_block_camera_paths(const TrSceneRef* s, TrBlockScratch* b, int x0, int y0,
                                         int w, int h, int i) {
   TR_GLOBAL const TrParams* p = s->params;
@@ -161,8 +160,8 @@ TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, int x0, int y
         tr_set_lane3(&b->hit_facing_n, f++, sf.n);
       }
       for (int light = 0; light < p->n_lights && f > 0; ++light) {
-        /* Every hit's view of the light and shadow ray, a hit per SIMD lane (frames
-         * 0.92-1.00 of the time they took a hit at a time: docs/performance.md); then
+        /* Every hit's view of the light and shadow ray, a hit per SIMD lane (no slower
+         * than a hit at a time, and up to 8% faster: docs/performance.md); then
          * the shadow rays asked for, moved to the front of the packet's arrays (never
          * backwards: k <= q). */
         TR_INDEPENDENT_LOOP

@@ -219,8 +219,8 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
   // chunk its place in each array), then the copies. The arrays list primitives in
   // object order (with a BVH, in the order of its leaves: below), whatever the thread
   // count. Each chunk is counted as it is validated, while its objects are in the
-  // caches: for spheres_1e6's 184 MB of objects the two took 12.9-13.4 ms in one pass
-  // against 17.3-17.7 in two (2 threads, Intel Xeon).
+  // caches: for spheres_1e6's 184 MB of objects one pass takes about three quarters of
+  // the time of two (bench/twinray_bench.cpp).
   constexpr size_t kChunk = kValidateChunk;
   const size_t n_objects = scene.objects.size();
   const size_t n_chunks = block_count(n_objects, kChunk);

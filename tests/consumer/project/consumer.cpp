@@ -22,7 +22,7 @@ int main(int argc, char** argv) {
     std::cerr << "usage: consumer SCENE.json OUT.png\n";
     return 2;
   }
-  static_assert(TWINRAY_VERSION_MAJOR == 0 && TWINRAY_VERSION_MINOR == 1, "version macros");
+  static_assert(TWINRAY_VERSION_MAJOR == 0 && TWINRAY_VERSION_MINOR == 2, "version macros");
   std::cout << "twinray " << TWINRAY_VERSION_STRING << "\n";
   // The target's -ffp-contract=off must beat the project's own flags (-march=native
   // -ffp-contract=fast in the test): this runs the library's own self-test.

@@ -149,9 +149,8 @@ class OpenCLBackend final : public RenderBackend<T> {
     // The first frame that needs a block program never asked for on this machine (no
     // marker in the disk cache: PoCL's cache is cold for it too) renders with the pixel
     // kernel, the same image, whose program PoCL compiles in about half the time; later
-    // frames, and later processes, build the block program. On the AMD EPYC, the cold
-    // first 1080p demo frame took 3.1-3.6 s with the block kernel and 2.1-2.4 s with
-    // the pixel kernel (docs/performance.md).
+    // frames, and later processes, build the block program. A cold first frame so
+    // takes about two thirds of the time (docs/performance.md, "PoCL program build").
     std::string options = options_for(entry_points);
     if (entry_points == TR_ENTRY_BLOCKS && new_block_program_takes_pixel() &&
         !ctx_.programs().asked_before(options)) {

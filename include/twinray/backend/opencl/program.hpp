@@ -92,8 +92,8 @@ inline std::string program_source() {
 // with 1, as PoCL reads it). PoCL keeps the program and every work-group function it
 // generates under POCL_CACHE_DIR already, and handing out a binary
 // (CL_PROGRAM_BINARIES) makes it compile a generic work-group function for each
-// kernel first: 2.6-2.9 s of a 6.2-6.8 s cold first frame of torus.json on a 2-vCPU
-// AMD EPYC. Without the copy a warm process builds from PoCL's cache in 50-100 ms
+// kernel first, about 40% of a cold first frame of torus.json. Without the copy a
+// warm process builds from PoCL's cache in 50-100 ms
 // instead of loading twinray's binary in 20 ms (docs/performance.md).
 // pocl_kernel_cache: the value of POCL_KERNEL_CACHE, or null where it is unset.
 inline bool keeps_binaries(const DeviceInfo& device, const char* pocl_kernel_cache) {
