@@ -110,7 +110,7 @@ inline std::string read_first(const std::string& file, const std::string& key) {
 }
 
 // The CPU as /proc/cpuinfo names it (model name; family and model, which tell the
-// generation where a virtual machine reports only "AMD EPYC"), the widest vector ISA it
+// generation where a virtual machine reports only a brand name), the widest vector ISA it
 // offers, its hardware threads and the memory.
 inline std::string machine_description() {
   std::ostringstream s;
