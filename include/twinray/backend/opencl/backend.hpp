@@ -70,6 +70,20 @@ class OpenCLBackend final : public RenderBackend<T> {
                       "backend");
   }
 
+  // Waits for the background builds of the context's programs (render_into starts one
+  // for a block program new to the machine), at most kBackgroundBuildWait: so that a
+  // process that renders one frame and ends leaves the block program in the disk
+  // caches, and the next process takes it without compiling. A process that ends
+  // without destroying the backend, or is killed, leaves no broken cache entry: the
+  // marker of a program is written after the program is in the caches.
+  ~OpenCLBackend() override {
+    std::lock_guard<std::mutex> lock(ctx_.mutex());
+    ctx_.programs().finish_background(kBackgroundBuildWait);
+  }
+  // The longest the destructor waits: far more than a build takes (2-8 s for the
+  // block program on PoCL), short of a hang.
+  static constexpr std::chrono::milliseconds kBackgroundBuildWait{120000};
+
   Backend kind() const override { return Backend::OpenCL; }
   PackOptions pack_options() const override {
     PackOptions options;
@@ -149,12 +163,18 @@ class OpenCLBackend final : public RenderBackend<T> {
     // The first frame that needs a block program never asked for on this machine (no
     // marker in the disk cache: PoCL's cache is cold for it too) renders with the pixel
     // kernel, the same image, whose program PoCL compiles in about half the time; later
-    // frames, and later processes, build the block program. On the AMD EPYC, the cold
+    // frames, and later processes, take the block kernel. On the AMD EPYC, the cold
     // first 1080p demo frame took 3.1-3.6 s with the block kernel and 2.1-2.4 s with
-    // the pixel kernel (docs/performance.md).
+    // the pixel kernel (docs/performance.md). Once the frame is done, the block program
+    // is built on a thread of its own into the disk caches
+    // (ProgramCache::build_in_background), so that no later process compiles it; the
+    // destructor waits for that build. Not before: PoCL builds one program at a time in
+    // a process, so a build beside the frame's would delay the frame by its whole time.
     std::string options = options_for(entry_points);
+    std::string build_later;  // the block program's options, when the frame takes pixel
     if (entry_points == TR_ENTRY_BLOCKS && new_block_program_takes_pixel() &&
         !ctx_.programs().asked_before(options)) {
+      build_later = options;
       entry_points = TR_ENTRY_RENDER;
       options = options_for(entry_points);
     }
@@ -213,6 +233,8 @@ class OpenCLBackend final : public RenderBackend<T> {
     }
     transfer_ms += sample_plan::ms_since(t_read);
     ctx_.programs().save_binary(program);
+    if (!build_later.empty())
+      ctx_.programs().build_in_background(build_later, "tr_kernel_render_blocks");
     if (info) {
       info->backend = Backend::OpenCL;
       info->device = dev.name;

@@ -8,11 +8,16 @@
 // generates the code for a work-group size at the first launch, so it is in them).
 // The disk key is the device, the driver version, the options and the whole source.
 // On PoCL with its own kernel cache on, twinray keeps no binaries (keeps_binaries). An
-// empty marker file per program asked for tells later processes that it was asked for
-// before (asked_before): the OpenCL backend then builds it from the first frame on.
+// empty marker file per program, written once the program is in the disk cache, tells
+// later processes that it was asked for before (asked_before): the OpenCL backend then
+// builds it from the first frame on. A program asked for for the first time can be
+// built on a thread of its own (BackgroundBuild) while the process renders with
+// another, so that it is in the disk cache for later processes.
 #pragma once
 
+#include <algorithm>
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -20,9 +25,14 @@
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <set>
 #include <string>
+#include <thread>
 #include <vector>
+
+#include <unistd.h>
 
 #include <twinray/backend/opencl/device.hpp>
 #include <twinray/device/features.h>
@@ -104,6 +114,147 @@ inline bool keeps_binaries(const DeviceInfo& device) {
   return keeps_binaries(device, std::getenv("POCL_KERNEL_CACHE"));
 }
 
+// Writes a disk-cache file whole or not at all: the bytes go to a temporary file in
+// the same folder, named after the process and the caller, which is renamed over
+// `path`; a process killed half-way leaves a temporary, never a partial entry. The
+// folder is created where missing. Failures only cost the cache: returns false.
+inline bool write_cache_file(const std::string& path, const void* data, size_t size) {
+  std::error_code ec;
+  std::filesystem::create_directories(std::filesystem::path(path).parent_path(), ec);
+  const std::string tmp = path + ".tmp-" + std::to_string(::getpid()) + "-" +
+                          std::to_string(std::hash<std::thread::id>()(std::this_thread::get_id()));
+  {
+    std::ofstream f(tmp, std::ios::binary);
+    if (!f) return false;
+    f.write(static_cast<const char*>(data), static_cast<std::streamsize>(size));
+    f.close();
+    if (!f) {
+      std::remove(tmp.c_str());
+      return false;
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) == 0) return true;
+  std::remove(tmp.c_str());
+  return false;
+}
+
+// The binary of a built program (CL_PROGRAM_BINARIES); empty on failure.
+inline std::vector<unsigned char> program_binary(cl_program program) {
+  size_t size = 0;
+  if (clGetProgramInfo(program, CL_PROGRAM_BINARY_SIZES, sizeof size, &size, nullptr) !=
+          CL_SUCCESS ||
+      size == 0)
+    return {};
+  std::vector<unsigned char> bytes(size);
+  unsigned char* ptr = bytes.data();
+  if (clGetProgramInfo(program, CL_PROGRAM_BINARIES, sizeof ptr, &ptr, nullptr) != CL_SUCCESS)
+    return {};
+  return bytes;
+}
+
+// One program built on a thread of its own, in an OpenCL context of its own, for the
+// disk caches of later processes: the driver's (PoCL keeps the program under
+// POCL_CACHE_DIR as it builds it) and twinray's (the binary, where twinray keeps
+// them), then the marker that tells later processes it was asked for. A context and
+// queue of its own: the build needs nothing the calling thread holds (the Context's
+// mutex and queue). PoCL builds one program at a time in a process, so the build runs
+// after, not beside, other threads' builds. After the build, one launch of `kernel`
+// over a single 1x1 work-group, every argument a zero-filled buffer (a zero TrParams:
+// an empty rectangle, so the kernel returns at once), makes PoCL generate and cache
+// that kernel's code for a 1x1 work-group, which the block kernel's launches use
+// (OpenCLBackend::launch_uniform). Nothing of it is used in this process: a later
+// request for the same program waits for it (wait) and then builds from the caches.
+// Failures cost only the caches: no marker is written, and the next process asks
+// again. The destructor waits for the thread.
+class BackgroundBuild {
+ public:
+  BackgroundBuild(const DeviceInfo& device, std::string source, std::string options,
+                  std::string kernel, std::string binary_file, std::string marker_file)
+      : device_(device),
+        source_(std::move(source)),
+        options_(std::move(options)),
+        kernel_(std::move(kernel)),
+        binary_file_(std::move(binary_file)),
+        marker_file_(std::move(marker_file)) {
+    thread_ = std::thread([this] { run(); });
+  }
+  BackgroundBuild(const BackgroundBuild&) = delete;
+  BackgroundBuild& operator=(const BackgroundBuild&) = delete;
+  ~BackgroundBuild() { wait(); }
+
+  // Waits at most `limit` for the build to end; whether it has.
+  bool wait_for(std::chrono::milliseconds limit) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    return done_cv_.wait_for(lock, limit, [this] { return done_; });
+  }
+  // Waits for the build to end.
+  void wait() {
+    if (thread_.joinable()) thread_.join();
+  }
+  // Whether the build reached the disk caches (valid once it has ended).
+  bool succeeded() const { return succeeded_; }
+
+ private:
+  void run() {
+    cl_int err = CL_SUCCESS;
+    cl_context_properties props[] = {CL_CONTEXT_PLATFORM,
+                                     reinterpret_cast<cl_context_properties>(device_.platform), 0};
+    cl_context context = clCreateContext(props, 1, &device_.device, nullptr, nullptr, &err);
+    cl_command_queue queue = nullptr;
+    cl_program program = nullptr;
+    cl_kernel kernel = nullptr;
+    cl_mem zeros = nullptr;
+    bool ok = err == CL_SUCCESS;
+    if (ok) queue = clCreateCommandQueue(context, device_.device, 0, &err);
+    ok = ok && err == CL_SUCCESS;
+    const char* text = source_.c_str();
+    if (ok) program = clCreateProgramWithSource(context, 1, &text, nullptr, &err);
+    ok = ok && err == CL_SUCCESS;
+    ok = ok && clBuildProgram(program, 1, &device_.device, options_.c_str(), nullptr, nullptr) ==
+                   CL_SUCCESS;
+    if (ok) kernel = clCreateKernel(program, kernel_.c_str(), &err);
+    ok = ok && err == CL_SUCCESS;
+    cl_uint args = 0;
+    ok = ok &&
+         clGetKernelInfo(kernel, CL_KERNEL_NUM_ARGS, sizeof args, &args, nullptr) == CL_SUCCESS;
+    std::vector<unsigned char> zero_bytes(kZeroBytes, 0);
+    if (ok)
+      zeros = clCreateBuffer(context, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, zero_bytes.size(),
+                             zero_bytes.data(), &err);
+    ok = ok && err == CL_SUCCESS;
+    for (cl_uint i = 0; ok && i < args; ++i)
+      ok = clSetKernelArg(kernel, i, sizeof zeros, &zeros) == CL_SUCCESS;
+    size_t one[2] = {1, 1};
+    ok = ok && clEnqueueNDRangeKernel(queue, kernel, 2, nullptr, one, one, 0, nullptr, nullptr) ==
+                   CL_SUCCESS;
+    ok = ok && clFinish(queue) == CL_SUCCESS;
+    if (ok && !binary_file_.empty()) {
+      const std::vector<unsigned char> binary = program_binary(program);
+      ok = !binary.empty() && write_cache_file(binary_file_, binary.data(), binary.size());
+    }
+    if (ok && !marker_file_.empty()) ok = write_cache_file(marker_file_, "", 0);
+    if (zeros) clReleaseMemObject(zeros);
+    if (kernel) clReleaseKernel(kernel);
+    if (program) clReleaseProgram(program);
+    if (queue) clReleaseCommandQueue(queue);
+    if (context) clReleaseContext(context);
+    std::lock_guard<std::mutex> lock(mutex_);
+    succeeded_ = ok;
+    done_ = true;
+    done_cv_.notify_all();
+  }
+
+  // The zero-filled buffer's size: larger than TrParams in double.
+  static constexpr size_t kZeroBytes = 4096;
+
+  DeviceInfo device_;
+  std::string source_, options_, kernel_, binary_file_, marker_file_;
+  std::mutex mutex_;
+  std::condition_variable done_cv_;
+  bool done_ = false, succeeded_ = false;
+  std::thread thread_;
+};
+
 // The built programs of one context. Not thread-safe: the Context's mutex guards it.
 class ProgramCache {
  public:
@@ -119,6 +270,7 @@ class ProgramCache {
   ProgramCache(const ProgramCache&) = delete;
   ProgramCache& operator=(const ProgramCache&) = delete;
   ~ProgramCache() {
+    background_.clear();  // waits for the background builds
     for (auto& p : programs_) clReleaseProgram(p.second.program);
   }
 
@@ -130,6 +282,12 @@ class ProgramCache {
     *build_ms = 0;
     if (it != programs_.end()) return it->second;
     auto t0 = std::chrono::steady_clock::now();
+    // A background build of the same program: wait for it, then build from the caches
+    // it filled rather than compile a second time beside it.
+    if (auto job = background_.find(options); job != background_.end()) {
+      job->second->wait();
+      background_.erase(job);
+    }
     Entry entry;
     const std::string source_text = program_source();
     const std::string stem = keeps_binaries(info_) ? cache_stem(options, source_text) : "";
@@ -147,24 +305,62 @@ class ProgramCache {
   }
 
   // Whether a program for these options was asked for before: by this cache, or by an
-  // earlier process on this device with the same driver and source (a marker file in
-  // cache_dir(), "program-KEY.seen", or the program's binary where twinray keeps
-  // them). Records the request either way, so the next call answers true. The OpenCL
-  // backend renders the first frame of a block program never asked for on this
-  // machine with the pixel kernel, which compiles in about half the time on PoCL
-  // (OpenCLBackend::render_into).
+  // earlier process on this device with the same driver and source whose request
+  // reached the disk cache (a marker file in cache_dir(), "program-KEY.seen", written
+  // by remember() or build_in_background(), or the program's binary where twinray
+  // keeps them). Records the request in the process, so the next call answers true.
+  // The OpenCL backend renders the first frame of a block program never asked for on
+  // this machine with the pixel kernel, which compiles in about half the time on PoCL,
+  // and builds the block program in the background (OpenCLBackend::render_into).
   bool asked_before(const std::string& options) {
     if (!asked_.insert(options).second || programs_.count(options) != 0) return true;
     const std::string stem = cache_stem(options, program_source());
     if (stem.empty()) return false;
-    const std::string marker = stem + ".seen";
     std::error_code ec;
-    if (std::filesystem::exists(marker, ec)) return true;
-    if (keeps_binaries(info_) && std::filesystem::exists(stem + ".bin", ec)) return true;
-    std::filesystem::create_directories(std::filesystem::path(marker).parent_path(), ec);
-    std::ofstream touch(marker, std::ios::binary);  // failure only costs the marker
-    return false;
+    if (std::filesystem::exists(stem + ".seen", ec)) return true;
+    return keeps_binaries(info_) && std::filesystem::exists(stem + ".bin", ec);
   }
+
+  // Writes the marker that makes later processes' asked_before(options) answer true.
+  // Failures only cost the marker.
+  void remember(const std::string& options) {
+    const std::string stem = cache_stem(options, program_source());
+    if (!stem.empty()) write_cache_file(stem + ".seen", "", 0);
+  }
+
+  // Starts building the program for these options on a thread of its own, for later
+  // processes (BackgroundBuild: PoCL's cache, twinray's binary where it keeps them, and
+  // the marker that asked_before reads), with one launch of `kernel` over a 1x1
+  // work-group. Nothing to do without a cache folder, or where this cache holds or
+  // builds the program already. get() for the same options waits for it; so do
+  // finish_background() and the destructor.
+  void build_in_background(const std::string& options, const std::string& kernel) {
+    if (programs_.count(options) != 0 || background_.count(options) != 0) return;
+    const std::string source = program_source();
+    const std::string stem = cache_stem(options, source);
+    if (stem.empty()) return;
+    background_.emplace(options, std::make_unique<BackgroundBuild>(
+                                     info_, source, options, kernel,
+                                     keeps_binaries(info_) ? stem + ".bin" : "", stem + ".seen"));
+  }
+
+  // Waits, at most `limit` in all, for the background builds to end; whether they all
+  // have. One still running past the limit goes on (and is waited for by get() or the
+  // destructor).
+  bool finish_background(std::chrono::milliseconds limit) {
+    const auto deadline = std::chrono::steady_clock::now() + limit;
+    for (auto it = background_.begin(); it != background_.end();) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+          deadline - std::chrono::steady_clock::now());
+      if (!it->second->wait_for(std::max(left, std::chrono::milliseconds(0)))) return false;
+      it->second->wait();
+      it = background_.erase(it);
+    }
+    return true;
+  }
+
+  // How many background builds this cache has started and not yet waited for.
+  size_t background_builds() const { return background_.size(); }
 
   // The build options of every program this cache holds, one per program.
   std::vector<std::string> built_options() const {
@@ -177,29 +373,8 @@ class ProgramCache {
   void save_binary(Entry& entry) {
     if (entry.saved || entry.cache_file.empty()) return;
     entry.saved = true;
-    size_t size = 0;
-    if (clGetProgramInfo(entry.program, CL_PROGRAM_BINARY_SIZES, sizeof size, &size, nullptr) !=
-            CL_SUCCESS ||
-        size == 0)
-      return;
-    std::vector<unsigned char> bytes(size);
-    unsigned char* ptr = bytes.data();
-    if (clGetProgramInfo(entry.program, CL_PROGRAM_BINARIES, sizeof ptr, &ptr, nullptr) !=
-        CL_SUCCESS)
-      return;
-    std::error_code ec;
-    std::filesystem::create_directories(std::filesystem::path(entry.cache_file).parent_path(), ec);
-    std::string tmp = entry.cache_file + ".tmp" + std::to_string(reinterpret_cast<uintptr_t>(this));
-    {
-      std::ofstream f(tmp, std::ios::binary);
-      if (!f) return;
-      f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(size));
-      if (!f) {
-        std::remove(tmp.c_str());
-        return;
-      }
-    }
-    if (std::rename(tmp.c_str(), entry.cache_file.c_str()) != 0) std::remove(tmp.c_str());
+    const std::vector<unsigned char> bytes = program_binary(entry.program);
+    if (!bytes.empty()) write_cache_file(entry.cache_file, bytes.data(), bytes.size());
   }
 
  private:
@@ -261,6 +436,7 @@ class ProgramCache {
   DeviceInfo info_;
   std::map<std::string, Entry> programs_;
   std::set<std::string> asked_;  // asked_before's answers in this process
+  std::map<std::string, std::unique_ptr<BackgroundBuild>> background_;
 };
 
 }  // namespace opencl
