@@ -84,6 +84,9 @@ class OpenCLBackend final : public RenderBackend<T> {
   // block program on PoCL), short of a hang.
   static constexpr std::chrono::milliseconds kBackgroundBuildWait{120000};
 
+  // The block kernel (kernels/render.cl).
+  static constexpr const char* kBlockKernel = "tr_kernel_render_blocks";
+
   Backend kind() const override { return Backend::OpenCL; }
   PackOptions pack_options() const override {
     PackOptions options;
@@ -165,16 +168,21 @@ class OpenCLBackend final : public RenderBackend<T> {
     // kernel, the same image, whose program PoCL compiles in about half the time; later
     // frames, and later processes, take the block kernel. On the AMD EPYC, the cold
     // first 1080p demo frame took 3.1-3.6 s with the block kernel and 2.1-2.4 s with
-    // the pixel kernel (docs/performance.md). Once the frame is done, the block program
-    // is built on a thread of its own into the disk caches
-    // (ProgramCache::build_in_background), so that no later process compiles it; the
-    // destructor waits for that build. Not before: PoCL builds one program at a time in
-    // a process, so a build beside the frame's would delay the frame by its whole time.
+    // the pixel kernel (docs/performance.md). The block program is built in the
+    // background into the disk caches (ProgramCache::build_in_background), so that no
+    // later process compiles it; the destructor waits for that build. Where the
+    // application names a build helper (build_helper(): the `twinray` command does),
+    // that process builds it beside the frame; else a thread does once the frame is
+    // done, not before: PoCL builds one program at a time in a process, so a build
+    // beside the frame's would delay the frame by its whole time.
     std::string options = options_for(entry_points);
     std::string build_later;  // the block program's options, when the frame takes pixel
     if (entry_points == TR_ENTRY_BLOCKS && new_block_program_takes_pixel() &&
         !ctx_.programs().asked_before(options)) {
-      build_later = options;
+      if (build_helper().empty())
+        build_later = options;
+      else
+        ctx_.programs().build_in_background(options, kBlockKernel);
       entry_points = TR_ENTRY_RENDER;
       options = options_for(entry_points);
     }
@@ -233,8 +241,7 @@ class OpenCLBackend final : public RenderBackend<T> {
     }
     transfer_ms += sample_plan::ms_since(t_read);
     ctx_.programs().save_binary(program);
-    if (!build_later.empty())
-      ctx_.programs().build_in_background(build_later, "tr_kernel_render_blocks");
+    if (!build_later.empty()) ctx_.programs().build_in_background(build_later, kBlockKernel);
     if (info) {
       info->backend = Backend::OpenCL;
       info->device = dev.name;

@@ -16,6 +16,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
@@ -32,6 +33,9 @@
 #include <thread>
 #include <vector>
 
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <twinray/backend/opencl/device.hpp>
@@ -152,6 +156,50 @@ inline std::vector<unsigned char> program_binary(cl_program program) {
   return bytes;
 }
 
+// The command that builds a program in a process of its own (BackgroundBuild), where
+// the application has one: its argv, to which "--device N --options O --kernel K" are
+// appended, and which must do what build_for_later_processes() does (the `twinray`
+// command runs itself: apps/twinray/build_helper.cpp). PoCL builds one program at a
+// time in a process, so only a process of its own builds beside the frame's build.
+// Empty (the default): the program is built on a thread, after the frame.
+inline std::vector<std::string>& build_helper_argv() {
+  static std::vector<std::string>& argv = *new std::vector<std::string>;
+  return argv;
+}
+inline std::mutex& build_helper_mutex() {
+  static std::mutex& mutex = *new std::mutex;
+  return mutex;
+}
+inline void set_build_helper(std::vector<std::string> argv) {
+  std::lock_guard<std::mutex> lock(build_helper_mutex());
+  build_helper_argv() = std::move(argv);
+}
+inline std::vector<std::string> build_helper() {
+  std::lock_guard<std::mutex> lock(build_helper_mutex());
+  return build_helper_argv();
+}
+
+// Runs argv (argv[0] a path) with stdin, stdout and stderr on /dev/null and waits for
+// it; whether it exited with status 0.
+inline bool run_quietly(std::vector<std::string> argv) {
+  std::vector<char*> args;
+  for (std::string& a : argv) args.push_back(&a[0]);
+  args.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  if (posix_spawn_file_actions_init(&actions) != 0) return false;
+  posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
+  pid_t pid = 0;
+  const int spawned = posix_spawn(&pid, args[0], &actions, nullptr, args.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (spawned != 0) return false;
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0)
+    if (errno != EINTR) return false;
+  return WIFEXITED(status) && WEXITSTATUS(status) == 0;
+}
+
 // One program built on a thread of its own, in an OpenCL context of its own, for the
 // disk caches of later processes: the driver's (PoCL keeps the program under
 // POCL_CACHE_DIR as it builds it) and twinray's (the binary, where twinray keeps
@@ -165,18 +213,21 @@ inline std::vector<unsigned char> program_binary(cl_program program) {
 // (OpenCLBackend::launch_uniform). Nothing of it is used in this process: a later
 // request for the same program waits for it (wait) and then builds from the caches.
 // Failures cost only the caches: no marker is written, and the next process asks
-// again. The destructor waits for the thread.
+// again. With a `helper` command (build_helper()), the thread runs it instead, and
+// that process builds the program this way. The destructor waits for the thread.
 class BackgroundBuild {
  public:
   BackgroundBuild(const DeviceInfo& device, std::string source, std::string options,
-                  std::string kernel, std::string binary_file, std::string marker_file)
+                  std::string kernel, std::string binary_file, std::string marker_file,
+                  std::vector<std::string> helper = {})
       : device_(device),
         source_(std::move(source)),
         options_(std::move(options)),
         kernel_(std::move(kernel)),
         binary_file_(std::move(binary_file)),
-        marker_file_(std::move(marker_file)) {
-    thread_ = std::thread([this] { run(); });
+        marker_file_(std::move(marker_file)),
+        helper_(std::move(helper)) {
+    thread_ = std::thread([this] { helper_.empty() ? run() : run_helper(); });
   }
   BackgroundBuild(const BackgroundBuild&) = delete;
   BackgroundBuild& operator=(const BackgroundBuild&) = delete;
@@ -195,6 +246,15 @@ class BackgroundBuild {
   bool succeeded() const { return succeeded_; }
 
  private:
+  void run_helper() {
+    std::vector<std::string> argv = helper_;
+    for (const std::string& a :
+         {std::string("--device"), std::to_string(device_.index), std::string("--options"),
+          options_, std::string("--kernel"), kernel_})
+      argv.push_back(a);
+    finish(run_quietly(argv));
+  }
+
   void run() {
     cl_int err = CL_SUCCESS;
     cl_context_properties props[] = {CL_CONTEXT_PLATFORM,
@@ -238,6 +298,10 @@ class BackgroundBuild {
     if (program) clReleaseProgram(program);
     if (queue) clReleaseCommandQueue(queue);
     if (context) clReleaseContext(context);
+    finish(ok);
+  }
+
+  void finish(bool ok) {
     std::lock_guard<std::mutex> lock(mutex_);
     succeeded_ = ok;
     done_ = true;
@@ -249,6 +313,7 @@ class BackgroundBuild {
 
   DeviceInfo device_;
   std::string source_, options_, kernel_, binary_file_, marker_file_;
+  std::vector<std::string> helper_;
   std::mutex mutex_;
   std::condition_variable done_cv_;
   bool done_ = false, succeeded_ = false;
@@ -336,12 +401,18 @@ class ProgramCache {
   // finish_background() and the destructor.
   void build_in_background(const std::string& options, const std::string& kernel) {
     if (programs_.count(options) != 0 || background_.count(options) != 0) return;
-    const std::string source = program_source();
-    const std::string stem = cache_stem(options, source);
-    if (stem.empty()) return;
-    background_.emplace(options, std::make_unique<BackgroundBuild>(
-                                     info_, source, options, kernel,
-                                     keeps_binaries(info_) ? stem + ".bin" : "", stem + ".seen"));
+    if (auto job = start_build(options, kernel, build_helper()))
+      background_.emplace(options, std::move(job));
+  }
+
+  // What a build helper process does (build_helper()): builds the program for these
+  // options as build_in_background does, on a thread of this process, and waits for
+  // it. Whether it reached the disk caches.
+  bool build_for_later_processes(const std::string& options, const std::string& kernel) {
+    std::unique_ptr<BackgroundBuild> job = start_build(options, kernel, {});
+    if (!job) return false;
+    job->wait();
+    return job->succeeded();
   }
 
   // Waits, at most `limit` in all, for the background builds to end; whether they all
@@ -378,6 +449,18 @@ class ProgramCache {
   }
 
  private:
+  // A BackgroundBuild of the program for these options; null without a cache folder.
+  std::unique_ptr<BackgroundBuild> start_build(const std::string& options,
+                                               const std::string& kernel,
+                                               std::vector<std::string> helper) const {
+    const std::string source = program_source();
+    const std::string stem = cache_stem(options, source);
+    if (stem.empty()) return nullptr;
+    return std::make_unique<BackgroundBuild>(info_, source, options, kernel,
+                                             keeps_binaries(info_) ? stem + ".bin" : "",
+                                             stem + ".seen", std::move(helper));
+  }
+
   // cache_dir()'s path for a program's files, "program-KEY" (the binary adds ".bin",
   // the marker ".seen"), KEY a hash of the device, the driver version, the options and
   // the whole source. Empty without a cache folder.

@@ -1,0 +1,60 @@
+// The `twinray` command as its own OpenCL build helper (build_helper.hpp).
+#include "build_helper.hpp"
+
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <iostream>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#ifdef TWINRAY_WITH_OPENCL
+#include <twinray/backend/opencl/context.hpp>
+#endif
+
+namespace twinray_cli {
+
+namespace {
+const char kFlag[] = "--opencl-build-helper";
+}  // namespace
+
+bool is_build_helper(int argc, char** argv) {
+  return argc > 1 && std::strcmp(argv[1], kFlag) == 0;
+}
+
+int run_build_helper(int argc, char** argv) {
+#ifdef TWINRAY_WITH_OPENCL
+  if (argc != 8 || std::strcmp(argv[2], "--device") != 0 ||
+      std::strcmp(argv[4], "--options") != 0 || std::strcmp(argv[6], "--kernel") != 0) {
+    std::cerr << "twinray: " << kFlag
+              << " is internal: --device N --options O --kernel K builds an OpenCL program "
+                 "into the disk caches\n";
+    return 2;
+  }
+  try {
+    twinray::opencl::Context& context = twinray::opencl::shared_context(std::atoi(argv[3]));
+    std::lock_guard<std::mutex> lock(context.mutex());
+    return context.programs().build_for_later_processes(argv[5], argv[7]) ? 0 : 1;
+  } catch (const std::exception&) {
+    return 1;
+  }
+#else
+  (void)argc, (void)argv;
+  std::cerr << "twinray: " << kFlag << ": this twinray was built without OpenCL\n";
+  return 2;
+#endif
+}
+
+void register_build_helper() {
+#ifdef TWINRAY_WITH_OPENCL
+  std::vector<char> path(4096);
+  const ssize_t n = ::readlink("/proc/self/exe", path.data(), path.size() - 1);
+  if (n <= 0) return;
+  twinray::opencl::set_build_helper({std::string(path.data(), static_cast<size_t>(n)), kFlag});
+#endif
+}
+
+}  // namespace twinray_cli
