@@ -4,6 +4,7 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -11,8 +12,12 @@
 #include <regex>
 #include <set>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
+
+#include <signal.h>
+#include <sys/wait.h>
 
 #include <twinray/io/pfm.hpp>
 
@@ -482,6 +487,133 @@ TEST_CASE("a new block program's first OpenCL frame takes the pixel kernel, the 
     CHECK(kernels == std::vector<std::string>{"pixel", "blocks"});
   } else {
     CHECK(kernels == std::vector<std::string>{"pixel", "pixel"});
+  }
+}
+
+namespace {
+// Every file under `dir`, as paths relative to it, sorted; temporaries left out.
+std::vector<std::string> files_under(const std::string& dir) {
+  std::vector<std::string> files;
+  std::error_code ec;
+  for (auto it = std::filesystem::recursive_directory_iterator(dir, ec);
+       !ec && it != std::filesystem::recursive_directory_iterator(); it.increment(ec))
+    if (it->is_regular_file() && it->path().string().find(".tmp") == std::string::npos)
+      files.push_back(std::filesystem::relative(it->path(), dir).string());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+// The kernel a `twinray render` summary line names.
+std::string kernel_named(const std::string& out) {
+  const size_t at = out.find(", kernel ");
+  if (at == std::string::npos) return "";
+  return out.substr(at + 9, out.find_first_of(",\n", at + 9) - at - 9);
+}
+}  // namespace
+
+TEST_CASE(
+    "the first OpenCL process leaves the block program in the caches, and the next compiles "
+    "nothing") {
+  // On PoCL with its kernel cache: the first process renders with the pixel kernel and
+  // builds the block program in the background before it exits (OpenCLBackend's
+  // destructor waits), so the second finds everything it runs in PoCL's cache, and
+  // adds nothing to it.
+  Result info = run_twinray({"info"});
+  if (!contains(info.out, "PoCL's own kernel cache holds the programs")) return;
+  std::string dir = fresh_folder(kWork, "startup_caches");
+  std::vector<std::string> env = {"TWINRAY_CACHE_DIR=" + dir + "/twinray",
+                                  "POCL_CACHE_DIR=" + dir + "/pocl", "TWINRAY_OPENCL_KERNEL",
+                                  "TWINRAY_OPENCL_FIRST_FRAME"};
+  const std::vector<std::string> render = {"render", "demo", "--width", "64",        "--height",
+                                           "48",     "-o",   "out.pfm", "--backend", "opencl"};
+  Result cpu = run_twinray(
+      {"render", "demo", "--width", "64", "--height", "48", "-o", "cpu.pfm", "--backend", "cpu"},
+      dir, env);
+  REQUIRE_MESSAGE(cpu.status == 0, cpu.err);
+  Result first = run_twinray(render, dir, env);
+  REQUIRE_MESSAGE(first.status == 0, first.err);
+  CHECK(kernel_named(first.out) == "pixel");
+  CHECK(read_file(dir + "/out.pfm") == read_file(dir + "/cpu.pfm"));
+  // What PoCL compiled: the files of its program folders (its top folder holds only
+  // temporaries of its own).
+  auto compiled = [&] {
+    std::vector<std::string> files;
+    for (const std::string& f : files_under(dir + "/pocl"))
+      if (contains(f, "/")) files.push_back(f);
+    return files;
+  };
+  const std::vector<std::string> after_first = compiled();
+  bool block_code = false;  // PoCL keeps a kernel's code in a folder named after it
+  for (const std::string& f : after_first)
+    block_code = block_code || contains(f, "/tr_kernel_render_blocks/");
+  CHECK(block_code);
+  Result second = run_twinray(render, dir, env);
+  REQUIRE_MESSAGE(second.status == 0, second.err);
+  CHECK(kernel_named(second.out) == "blocks");
+  CHECK(read_file(dir + "/out.pfm") == read_file(dir + "/cpu.pfm"));
+  CHECK(compiled() == after_first);
+}
+
+TEST_CASE("an OpenCL process killed while it builds leaves caches the next process renders from") {
+  // SIGKILL at three moments of a first process with empty caches: as soon as PoCL
+  // writes its first cache file (the programs are being built), at a fixed delay, and
+  // once the frame's file is written (the block program may still be building in the
+  // background). A marker left in twinray's cache folder means its program reached
+  // PoCL's cache. The next two processes then render the same bits as the CPU backend.
+  std::string dir = fresh_folder(kWork, "killed_build");
+  const std::vector<std::string> size = {"--width", "64", "--height", "48"};
+  auto render_args = [&](const std::string& out, const char* backend) {
+    std::vector<std::string> args = {"render", "demo", "-o", out, "--backend", backend};
+    args.insert(args.end(), size.begin(), size.end());
+    return args;
+  };
+  Result cpu = run_twinray(render_args("cpu.pfm", "cpu"), dir);
+  REQUIRE_MESSAGE(cpu.status == 0, cpu.err);
+  const std::string reference = read_file(dir + "/cpu.pfm");
+  for (const char* moment : {"pocl-file", "delay", "frame-written"}) {
+    CAPTURE(std::string(moment));
+    const std::string sub = fresh_folder(dir, moment);
+    const std::vector<std::string> env = {"TWINRAY_CACHE_DIR=" + sub + "/twinray",
+                                          "POCL_CACHE_DIR=" + sub + "/pocl",
+                                          "TWINRAY_OPENCL_KERNEL", "TWINRAY_OPENCL_FIRST_FRAME"};
+    std::vector<std::string> argv = render_args("killed.pfm", "opencl");
+    argv.insert(argv.begin(), kTwinray);
+    test_support::RunOptions options;
+    options.cwd = sub;
+    options.env = env;
+    test_support::Process p = test_support::Process::start(argv, options);
+    const auto start = std::chrono::steady_clock::now();
+    auto reached = [&] {
+      const std::string m = moment;
+      if (m == "delay")
+        return std::chrono::steady_clock::now() - start > std::chrono::milliseconds(700);
+      if (m == "frame-written") return std::filesystem::exists(sub + "/killed.pfm");
+      return !files_under(sub + "/pocl").empty();
+    };
+    // Polls until the moment, or the process ends on its own (then it is collected).
+    auto running = [&] {
+      siginfo_t status{};
+      return waitid(P_PID, static_cast<id_t>(p.pid()), &status, WEXITED | WNOHANG | WNOWAIT) == 0 &&
+             status.si_pid == 0;
+    };
+    while (!reached() && running() &&
+           std::chrono::steady_clock::now() - start < std::chrono::seconds(120))
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    ::kill(p.pid(), SIGKILL);
+    p.finish();
+    // A marker says its program is in the caches: it is written after the build.
+    bool marker = false, block_code = false;
+    for (const std::string& f : files_under(sub + "/twinray"))
+      marker = marker || contains(f, ".seen");
+    for (const std::string& f : files_under(sub + "/pocl"))
+      block_code = block_code || contains(f, "/tr_kernel_render_blocks/");
+    CHECK((!marker || block_code));
+    for (const char* out : {"next.pfm", "later.pfm"}) {
+      CAPTURE(std::string(out));
+      Result r = run_twinray(render_args(out, "opencl"), sub, env);
+      REQUIRE_MESSAGE(r.status == 0, r.err);
+      CHECK(read_file(sub + "/" + out) == reference);
+    }
   }
 }
 

@@ -152,11 +152,18 @@ TEST_CASE("a program is asked for for the first time once per machine") {
     CHECK_FALSE(first.asked_before(a));
     CHECK(first.asked_before(a));
     CHECK_FALSE(first.asked_before(b));
-    // A later process with the same cache folder: the marker files remember.
+    // A later process with the same cache folder: only a request whose program reached
+    // the disk cache (its marker written) is remembered.
+    CHECK_FALSE(opencl::ProgramCache(shared.context(), shared.info()).asked_before(a));
+    first.remember(a);
+    first.remember(b);
     opencl::ProgramCache later(shared.context(), shared.info());
     CHECK(later.asked_before(a));
     CHECK(later.asked_before(b));
     CHECK_FALSE(later.asked_before("-DTR_TEST_OPTIONS_C"));
+    // Written whole or not at all: no temporary is left beside the markers.
+    for (const auto& e : std::filesystem::directory_iterator(dir))
+      CHECK(e.path().filename().string().find(".tmp") == std::string::npos);
   }
   {
     // No disk cache: only the process remembers.
@@ -164,6 +171,7 @@ TEST_CASE("a program is asked for for the first time once per machine") {
     opencl::ProgramCache first(shared.context(), shared.info());
     CHECK_FALSE(first.asked_before(a));
     CHECK(first.asked_before(a));
+    first.remember(a);
     opencl::ProgramCache later(shared.context(), shared.info());
     CHECK_FALSE(later.asked_before(a));
   }
@@ -173,8 +181,8 @@ TEST_CASE("a program is asked for for the first time once per machine") {
 TEST_CASE("a block program's first frame on a machine takes the pixel kernel, the same image") {
   // On CPU devices shaded frames take the block kernel; while its program has never
   // been asked for on this machine (PoCL's cache is cold for it), a frame takes the
-  // pixel kernel, whose program compiles in about half the time, and the next frame
-  // builds the block program.
+  // pixel kernel, whose program compiles in about half the time, the block program is
+  // built in the background, and the next frame takes it.
   namespace fs = std::filesystem;
   const std::string dir = fresh_dir("tiered");
   ScopedEnv cache("TWINRAY_CACHE_DIR", dir.c_str());
@@ -191,6 +199,7 @@ TEST_CASE("a block program's first frame on a machine takes the pixel kernel, th
   const std::string blocks_entry = " -DTR_ENTRY_POINTS=" + std::to_string(TR_ENTRY_BLOCKS);
   // Each Context has a program cache of its own: a fresh one stands for a new process.
   // Per frame: the kernel that rendered, and whether a block program was built by then.
+  // "&": a background build had been started by then and not yet waited for.
   auto frames = [&](int n) {
     opencl::Context ctx(device);
     opencl::OpenCLBackend<float> backend(ctx);
@@ -203,7 +212,8 @@ TEST_CASE("a block program's first frame on a machine takes the pixel kernel, th
       bool block_program = false;
       for (const std::string& built : ctx.programs().built_options())
         block_program = block_program || built.find(blocks_entry) != std::string::npos;
-      kernels.push_back(info.kernel + (block_program ? "+" : ""));
+      kernels.push_back(info.kernel + (block_program ? "+" : "") +
+                        (ctx.programs().background_builds() > 0 ? "&" : ""));
     }
     return kernels;
   };
@@ -216,10 +226,21 @@ TEST_CASE("a block program's first frame on a machine takes the pixel kernel, th
     CHECK(frames(2) == std::vector<std::string>{"pixel", "pixel"});
     return;
   }
-  // "+": a block program was in the process by then.
-  CHECK(frames(2) == std::vector<std::string>{"pixel", "blocks+"});
+  // "+": a block program was in the process by then. The second frame waits for the
+  // background build and takes its program from the caches.
+  CHECK(frames(2) == std::vector<std::string>{"pixel&", "blocks+"});
   CHECK(markers(dir) == 1);
   CHECK(frames(1) == std::vector<std::string>{"blocks+"});  // a later process
+  {
+    // A process of one frame: destroying the backend waits for the background build,
+    // which leaves the marker, so the next process takes the block kernel at once.
+    const std::string one = fresh_dir("tiered-one-frame");
+    ScopedEnv one_cache("TWINRAY_CACHE_DIR", one.c_str());
+    CHECK(frames(1) == std::vector<std::string>{"pixel&"});
+    CHECK(markers(one) == 1);
+    CHECK(frames(1) == std::vector<std::string>{"blocks+"});
+    fs::remove_all(one);
+  }
   for (const char* forced : {"TWINRAY_OPENCL_KERNEL", "TWINRAY_OPENCL_FIRST_FRAME"}) {
     CAPTURE(forced);
     const std::string other = fresh_dir("tiered-forced");
