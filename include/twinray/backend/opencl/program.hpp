@@ -11,8 +11,9 @@
 // empty marker file per program, written once the program is in the disk cache, tells
 // later processes that it was asked for before (asked_before): the OpenCL backend then
 // builds it from the first frame on. A program asked for for the first time can be
-// built on a thread of its own (BackgroundBuild) while the process renders with
-// another, so that it is in the disk cache for later processes.
+// built in the background (BackgroundBuild: on a thread, or by a helper process that
+// the application names) while the process renders with another, so that it is in
+// the disk cache for later processes.
 #pragma once
 
 #include <algorithm>
