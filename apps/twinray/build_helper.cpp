@@ -1,18 +1,21 @@
 // The `twinray` command as its own OpenCL build helper (build_helper.hpp).
 #include "build_helper.hpp"
 
+#include <algorithm>
+#include <cerrno>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <iostream>
-#include <mutex>
 #include <string>
 #include <vector>
 
+#include <sys/resource.h>
 #include <unistd.h>
 
 #ifdef TWINRAY_WITH_OPENCL
-#include <twinray/backend/opencl/context.hpp>
+#include <twinray/backend/opencl/device.hpp>
+#include <twinray/backend/opencl/program.hpp>
 #endif
 
 namespace twinray_cli {
@@ -34,10 +37,18 @@ int run_build_helper(int argc, char** argv) {
                  "into the disk caches\n";
     return 2;
   }
+  // Nice 10: the build is for later processes, and should take little from the
+  // foreground ones, the one that started it included.
+  errno = 0;
+  const int nice = getpriority(PRIO_PROCESS, 0);
+  if (errno == 0) setpriority(PRIO_PROCESS, 0, std::min(nice + 10, 19));
   try {
-    twinray::opencl::Context& context = twinray::opencl::shared_context(std::atoi(argv[3]));
-    std::lock_guard<std::mutex> lock(context.mutex());
-    return context.programs().build_for_later_processes(argv[5], argv[7]) ? 0 : 1;
+    const std::vector<twinray::opencl::DeviceInfo> devices = twinray::opencl::list_devices();
+    const int index = std::max(0, std::atoi(argv[3]));
+    if (index >= static_cast<int>(devices.size())) return 1;
+    // The program cache's own context is not needed: the build makes its own.
+    twinray::opencl::ProgramCache programs(nullptr, devices[index]);
+    return programs.build_for_later_processes(argv[5], argv[7]) ? 0 : 1;
   } catch (const std::exception&) {
     return 1;
   }

@@ -1,7 +1,8 @@
 // The `twinray` command as its own OpenCL build helper (opencl::set_build_helper): a
-// block program new to the machine is built into the disk caches by a second
+// block program new to the machine is built into the disk caches by a second, detached
 // `twinray` process, started with the hidden first argument --opencl-build-helper,
-// beside the first frame's own build (PoCL builds one program at a time in a process).
+// beside the first frame's own build (PoCL builds one program at a time in a process);
+// the first process does not wait for it.
 #pragma once
 
 namespace twinray_cli {
@@ -16,8 +17,8 @@ bool is_build_helper(int argc, char** argv);
 int run_build_helper(int argc, char** argv);
 
 // Names this program (/proc/self/exe) as the OpenCL backend's build helper. Without
-// OpenCL, or where the program's path cannot be read, it does nothing: programs are
-// then built on a thread of the process.
+// OpenCL, or where the program's path cannot be read, it does nothing: nothing is then
+// built in the background.
 void register_build_helper();
 
 }  // namespace twinray_cli

@@ -70,20 +70,6 @@ class OpenCLBackend final : public RenderBackend<T> {
                       "backend");
   }
 
-  // Waits for the background builds of the context's programs (render_into starts one
-  // for a block program new to the machine), at most kBackgroundBuildWait: so that a
-  // process that renders one frame and ends leaves the block program in the disk
-  // caches, and the next process takes it without compiling. A process that ends
-  // without destroying the backend, or is killed, leaves no broken cache entry: the
-  // marker of a program is written after the program is in the caches.
-  ~OpenCLBackend() override {
-    std::lock_guard<std::mutex> lock(ctx_.mutex());
-    ctx_.programs().finish_background(kBackgroundBuildWait);
-  }
-  // The longest the destructor waits: far more than a build takes (2-8 s for the
-  // block program on PoCL), short of a hang.
-  static constexpr std::chrono::milliseconds kBackgroundBuildWait{120000};
-
   // The block kernel (kernels/render.cl).
   static constexpr const char* kBlockKernel = "tr_kernel_render_blocks";
 
@@ -163,28 +149,24 @@ class OpenCLBackend final : public RenderBackend<T> {
     auto options_for = [&](int entry) {
       return build_options(dev, features, sizeof(T) == 8, entry, request.options.specialize);
     };
-    // The first frame that needs a block program never asked for on this machine (no
-    // marker in the disk cache: PoCL's cache is cold for it too) renders with the pixel
-    // kernel, the same image, whose program PoCL compiles in about half the time; later
-    // frames, and later processes, take the block kernel. On the AMD EPYC, the cold
-    // first 1080p demo frame took 3.1-3.6 s with the block kernel and 2.1-2.4 s with
-    // the pixel kernel (docs/performance.md). The block program is built in the
-    // background into the disk caches (ProgramCache::build_in_background), so that no
-    // later process compiles it; the destructor waits for that build. Where the
-    // application names a build helper (build_helper(): the `twinray` command does),
-    // that process builds it beside the frame; else a thread does once the frame is
-    // done, not before: PoCL builds one program at a time in a process, so a build
-    // beside the frame's would delay the frame by its whole time.
+    // The first frame that needs a block program not yet in the disk caches (no marker:
+    // PoCL's cache is cold for it too) renders with the pixel kernel, the same image,
+    // whose program PoCL compiles in about half the time; later frames, and later
+    // processes, take the block kernel. On the AMD EPYC, the cold first 1080p demo frame
+    // took 3.1-3.6 s with the block kernel and 2.1-2.4 s with the pixel kernel
+    // (docs/performance.md). Where the application names a build helper (the `twinray`
+    // command does), a detached process builds the block program into the disk caches
+    // beside the frame, and later processes render with the pixel kernel until it is
+    // there (ProgramCache::build_in_helper); no process waits for it. Else the first
+    // process to ask takes the pixel kernel and the next builds the block program.
     std::string options = options_for(entry_points);
-    std::string build_later;  // the block program's options, when the frame takes pixel
     if (entry_points == TR_ENTRY_BLOCKS && new_block_program_takes_pixel() &&
         !ctx_.programs().asked_before(options)) {
-      if (build_helper().empty())
-        build_later = options;
-      else
-        ctx_.programs().build_in_background(options, kBlockKernel);
-      entry_points = TR_ENTRY_RENDER;
-      options = options_for(entry_points);
+      const bool building = ctx_.programs().build_in_helper(options, kBlockKernel);
+      if (ctx_.programs().note_request(options) || building) {
+        entry_points = TR_ENTRY_RENDER;
+        options = options_for(entry_points);
+      }
     }
     ProgramCache::Entry& program = ctx_.programs().get(options, &built_now, &build_ms);
 
@@ -241,7 +223,8 @@ class OpenCLBackend final : public RenderBackend<T> {
     }
     transfer_ms += sample_plan::ms_since(t_read);
     ctx_.programs().save_binary(program);
-    if (!build_later.empty()) ctx_.programs().build_in_background(build_later, kBlockKernel);
+    // Built and launched: in PoCL's cache, with its code for the launch's work-group.
+    if (entry_points == TR_ENTRY_BLOCKS) ctx_.programs().remember(options);
     if (info) {
       info->backend = Backend::OpenCL;
       info->device = dev.name;

@@ -9,17 +9,16 @@
 // The disk key is the device, the driver version, the options and the whole source.
 // On PoCL with its own kernel cache on, twinray keeps no binaries (keeps_binaries). An
 // empty marker file per program, written once the program is in the disk cache, tells
-// later processes that it was asked for before (asked_before): the OpenCL backend then
-// builds it from the first frame on. A program asked for for the first time can be
-// built in the background (BackgroundBuild: on a thread, or by a helper process that
-// the application names) while the process renders with another, so that it is in
-// the disk cache for later processes.
+// later processes that it is there (asked_before): the OpenCL backend then builds it
+// from the first frame on. A block program new to the machine is built into the disk
+// caches by a detached helper process that the application names (build_in_helper;
+// the `twinray` command runs itself), while the process renders with the pixel
+// kernel; a lock file tells later processes that the build is under way.
 #pragma once
 
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
-#include <condition_variable>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -35,6 +34,7 @@
 #include <vector>
 
 #include <fcntl.h>
+#include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -157,12 +157,13 @@ inline std::vector<unsigned char> program_binary(cl_program program) {
   return bytes;
 }
 
-// The command that builds a program in a process of its own (BackgroundBuild), where
-// the application has one: its argv, to which "--device N --options O --kernel K" are
-// appended, and which must do what build_for_later_processes() does (the `twinray`
-// command runs itself: apps/twinray/build_helper.cpp). PoCL builds one program at a
-// time in a process, so only a process of its own builds beside the frame's build.
-// Empty (the default): the program is built on a thread, after the frame.
+// The command that builds a program in a detached process of its own
+// (ProgramCache::build_in_helper), where the application names one: its argv, to which
+// "--device N --options O --kernel K" are appended, and which must do what
+// ProgramCache::build_for_later_processes() does (the `twinray` command runs itself:
+// apps/twinray/build_helper.cpp). A process of its own builds beside the frame's build
+// (PoCL builds one program at a time in a process) and may outlive the application.
+// Empty (the default): nothing is built in the background.
 inline std::vector<std::string>& build_helper_argv() {
   static std::vector<std::string>& argv = *new std::vector<std::string>;
   return argv;
@@ -180,146 +181,157 @@ inline std::vector<std::string> build_helper() {
   return build_helper_argv();
 }
 
-// Runs argv (argv[0] a path) with stdin, stdout and stderr on /dev/null and waits for
-// it; whether it exited with status 0.
-inline bool run_quietly(std::vector<std::string> argv) {
+// Whether a program new to the machine may be built in the background by the build
+// helper: unless TWINRAY_OPENCL_BACKGROUND_BUILD is 0.
+inline bool background_build_enabled() {
+  const char* v = std::getenv("TWINRAY_OPENCL_BACKGROUND_BUILD");
+  return !(v && std::string(v) == "0");
+}
+
+// The build lock of a program ("program-KEY.lock" beside its marker): it exists while
+// a build helper process builds the program, and holds that process's id in decimal.
+// A lock whose process has ended (killed, say), or older than kBuildLockMaxAge (the
+// id may have been reused), is stale: it is ignored and replaced.
+constexpr std::chrono::minutes kBuildLockMaxAge{10};
+
+// Whether process `pid` runs: it exists and is not a zombie (a helper killed after its
+// parent ended may wait as a zombie for a parent that never collects it).
+inline bool process_alive(long pid) {
+  if (pid <= 0 || (::kill(static_cast<pid_t>(pid), 0) != 0 && errno != EPERM)) return false;
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
+  const size_t paren = text.rfind(')');  // "PID (NAME) STATE ..."
+  return paren == std::string::npos || paren + 2 >= text.size() || text[paren + 2] != 'Z';
+}
+
+// The process id a lock file holds; 0 where it holds none or cannot be read.
+inline long build_lock_pid(const std::string& lock) {
+  std::ifstream f(lock);
+  long pid = 0;
+  return f >> pid ? pid : 0;
+}
+
+// Whether a live build holds this lock (above).
+inline bool build_in_progress(const std::string& lock) {
+  std::error_code ec;
+  const auto written = std::filesystem::last_write_time(lock, ec);
+  if (ec || std::filesystem::file_time_type::clock::now() - written > kBuildLockMaxAge)
+    return false;
+  return process_alive(build_lock_pid(lock));
+}
+
+// Takes the build lock for process `pid`: creates it, whole, where there is none, or
+// replaces a stale one. False where a live build holds it or it cannot be written. The
+// file is written beside it and linked to its name, which fails where the name exists:
+// two processes never both take it, and no reader sees it half-written. (Two processes
+// that find the same stale lock at once can both replace it: that costs a second
+// build, never a broken cache entry.)
+inline bool take_build_lock(const std::string& lock, long pid) {
+  std::error_code ec;
+  std::filesystem::create_directories(std::filesystem::path(lock).parent_path(), ec);
+  const std::string tmp = lock + ".tmp-" + std::to_string(::getpid());
+  const std::string text = std::to_string(pid) + "\n";
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    if (!(f << text) || (f.close(), !f)) {
+      std::remove(tmp.c_str());
+      return false;
+    }
+  }
+  bool taken = ::link(tmp.c_str(), lock.c_str()) == 0;
+  if (!taken && errno == EEXIST && !build_in_progress(lock)) {
+    std::remove(lock.c_str());
+    taken = ::link(tmp.c_str(), lock.c_str()) == 0;
+  }
+  std::remove(tmp.c_str());
+  return taken;
+}
+
+// Starts argv (argv[0] a path) detached: a session of its own, stdin, stdout and
+// stderr on /dev/null, no other descriptor of this process, nobody waiting for it.
+// Its process id; 0 where it could not start. A parent that outlives it leaves it a
+// zombie until the parent ends (process_alive counts a zombie as ended).
+inline long spawn_detached(std::vector<std::string> argv) {
   std::vector<char*> args;
   for (std::string& a : argv) args.push_back(&a[0]);
   args.push_back(nullptr);
   posix_spawn_file_actions_t actions;
-  if (posix_spawn_file_actions_init(&actions) != 0) return false;
+  posix_spawnattr_t attr;
+  if (posix_spawn_file_actions_init(&actions) != 0) return 0;
+  if (posix_spawnattr_init(&attr) != 0) {
+    posix_spawn_file_actions_destroy(&actions);
+    return 0;
+  }
   posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
   posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
   posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_addclosefrom_np(&actions, 3);
+  sigset_t none;
+  sigemptyset(&none);
+  posix_spawnattr_setsigmask(&attr, &none);
+  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSID | POSIX_SPAWN_SETSIGMASK);
   pid_t pid = 0;
-  const int spawned = posix_spawn(&pid, args[0], &actions, nullptr, args.data(), environ);
+  const int spawned = posix_spawn(&pid, args[0], &actions, &attr, args.data(), environ);
+  posix_spawnattr_destroy(&attr);
   posix_spawn_file_actions_destroy(&actions);
-  if (spawned != 0) return false;
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0)
-    if (errno != EINTR) return false;
-  return WIFEXITED(status) && WEXITSTATUS(status) == 0;
+  return spawned == 0 ? pid : 0;
 }
 
-// One program built on a thread of its own, in an OpenCL context of its own, for the
-// disk caches of later processes: the driver's (PoCL keeps the program under
-// POCL_CACHE_DIR as it builds it) and twinray's (the binary, where twinray keeps
-// them), then the marker that tells later processes it was asked for. A context and
-// queue of its own: the build needs nothing the calling thread holds (the Context's
-// mutex and queue). PoCL builds one program at a time in a process, so the build runs
-// after, not beside, other threads' builds. After the build, one launch of `kernel`
-// over a single 1x1 work-group, every argument a zero-filled buffer (a zero TrParams:
-// an empty rectangle, so the kernel returns at once), makes PoCL generate and cache
-// that kernel's code for a 1x1 work-group, which the block kernel's launches use
-// (OpenCLBackend::launch_uniform). Nothing of it is used in this process: a later
-// request for the same program waits for it (wait) and then builds from the caches.
-// Failures cost only the caches: no marker is written, and the next process asks
-// again. With a `helper` command (build_helper()), the thread runs it instead, and
-// that process builds the program this way. The destructor waits for the thread.
-class BackgroundBuild {
- public:
-  BackgroundBuild(const DeviceInfo& device, std::string source, std::string options,
-                  std::string kernel, std::string binary_file, std::string marker_file,
-                  std::vector<std::string> helper = {})
-      : device_(device),
-        source_(std::move(source)),
-        options_(std::move(options)),
-        kernel_(std::move(kernel)),
-        binary_file_(std::move(binary_file)),
-        marker_file_(std::move(marker_file)),
-        helper_(std::move(helper)) {
-    thread_ = std::thread([this] { helper_.empty() ? run() : run_helper(); });
+// Builds one program into the disk caches for later processes, in an OpenCL context
+// of its own: the driver's (PoCL keeps the program under POCL_CACHE_DIR as it builds
+// it) and twinray's (the binary, where twinray keeps them: `binary_file` not empty),
+// then writes `marker_file`, the marker that tells later processes the program is
+// there. After the build, one launch of `kernel` over a single 1x1 work-group, every
+// argument a zero-filled buffer (a zero TrParams: an empty rectangle, so the kernel
+// returns at once), makes PoCL generate and cache that kernel's code for a 1x1
+// work-group, which the block kernel's launches use (OpenCLBackend::launch_uniform).
+// Failures cost only the caches: no marker is written. Whether the marker was.
+inline bool build_into_caches(const DeviceInfo& device, const std::string& source,
+                              const std::string& options, const std::string& kernel_name,
+                              const std::string& binary_file, const std::string& marker_file) {
+  cl_int err = CL_SUCCESS;
+  cl_context_properties props[] = {CL_CONTEXT_PLATFORM,
+                                   reinterpret_cast<cl_context_properties>(device.platform), 0};
+  cl_context context = clCreateContext(props, 1, &device.device, nullptr, nullptr, &err);
+  cl_command_queue queue = nullptr;
+  cl_program program = nullptr;
+  cl_kernel kernel = nullptr;
+  cl_mem zeros = nullptr;
+  bool ok = err == CL_SUCCESS;
+  if (ok) queue = clCreateCommandQueue(context, device.device, 0, &err);
+  ok = ok && err == CL_SUCCESS;
+  const char* text = source.c_str();
+  if (ok) program = clCreateProgramWithSource(context, 1, &text, nullptr, &err);
+  ok = ok && err == CL_SUCCESS;
+  ok = ok &&
+       clBuildProgram(program, 1, &device.device, options.c_str(), nullptr, nullptr) == CL_SUCCESS;
+  if (ok) kernel = clCreateKernel(program, kernel_name.c_str(), &err);
+  ok = ok && err == CL_SUCCESS;
+  cl_uint args = 0;
+  ok = ok && clGetKernelInfo(kernel, CL_KERNEL_NUM_ARGS, sizeof args, &args, nullptr) == CL_SUCCESS;
+  std::vector<unsigned char> zero_bytes(4096, 0);  // more than TrParams in double
+  if (ok)
+    zeros = clCreateBuffer(context, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, zero_bytes.size(),
+                           zero_bytes.data(), &err);
+  ok = ok && err == CL_SUCCESS;
+  for (cl_uint i = 0; ok && i < args; ++i)
+    ok = clSetKernelArg(kernel, i, sizeof zeros, &zeros) == CL_SUCCESS;
+  size_t one[2] = {1, 1};
+  ok = ok && clEnqueueNDRangeKernel(queue, kernel, 2, nullptr, one, one, 0, nullptr, nullptr) ==
+                 CL_SUCCESS;
+  ok = ok && clFinish(queue) == CL_SUCCESS;
+  if (ok && !binary_file.empty()) {
+    const std::vector<unsigned char> binary = program_binary(program);
+    ok = !binary.empty() && write_cache_file(binary_file, binary.data(), binary.size());
   }
-  BackgroundBuild(const BackgroundBuild&) = delete;
-  BackgroundBuild& operator=(const BackgroundBuild&) = delete;
-  ~BackgroundBuild() { wait(); }
-
-  // Waits at most `limit` for the build to end; whether it has.
-  bool wait_for(std::chrono::milliseconds limit) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    return done_cv_.wait_for(lock, limit, [this] { return done_; });
-  }
-  // Waits for the build to end.
-  void wait() {
-    if (thread_.joinable()) thread_.join();
-  }
-  // Whether the build reached the disk caches (valid once it has ended).
-  bool succeeded() const { return succeeded_; }
-
- private:
-  void run_helper() {
-    std::vector<std::string> argv = helper_;
-    for (const std::string& a :
-         {std::string("--device"), std::to_string(device_.index), std::string("--options"),
-          options_, std::string("--kernel"), kernel_})
-      argv.push_back(a);
-    finish(run_quietly(argv));
-  }
-
-  void run() {
-    cl_int err = CL_SUCCESS;
-    cl_context_properties props[] = {CL_CONTEXT_PLATFORM,
-                                     reinterpret_cast<cl_context_properties>(device_.platform), 0};
-    cl_context context = clCreateContext(props, 1, &device_.device, nullptr, nullptr, &err);
-    cl_command_queue queue = nullptr;
-    cl_program program = nullptr;
-    cl_kernel kernel = nullptr;
-    cl_mem zeros = nullptr;
-    bool ok = err == CL_SUCCESS;
-    if (ok) queue = clCreateCommandQueue(context, device_.device, 0, &err);
-    ok = ok && err == CL_SUCCESS;
-    const char* text = source_.c_str();
-    if (ok) program = clCreateProgramWithSource(context, 1, &text, nullptr, &err);
-    ok = ok && err == CL_SUCCESS;
-    ok = ok && clBuildProgram(program, 1, &device_.device, options_.c_str(), nullptr, nullptr) ==
-                   CL_SUCCESS;
-    if (ok) kernel = clCreateKernel(program, kernel_.c_str(), &err);
-    ok = ok && err == CL_SUCCESS;
-    cl_uint args = 0;
-    ok = ok &&
-         clGetKernelInfo(kernel, CL_KERNEL_NUM_ARGS, sizeof args, &args, nullptr) == CL_SUCCESS;
-    std::vector<unsigned char> zero_bytes(kZeroBytes, 0);
-    if (ok)
-      zeros = clCreateBuffer(context, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, zero_bytes.size(),
-                             zero_bytes.data(), &err);
-    ok = ok && err == CL_SUCCESS;
-    for (cl_uint i = 0; ok && i < args; ++i)
-      ok = clSetKernelArg(kernel, i, sizeof zeros, &zeros) == CL_SUCCESS;
-    size_t one[2] = {1, 1};
-    ok = ok && clEnqueueNDRangeKernel(queue, kernel, 2, nullptr, one, one, 0, nullptr, nullptr) ==
-                   CL_SUCCESS;
-    ok = ok && clFinish(queue) == CL_SUCCESS;
-    if (ok && !binary_file_.empty()) {
-      const std::vector<unsigned char> binary = program_binary(program);
-      ok = !binary.empty() && write_cache_file(binary_file_, binary.data(), binary.size());
-    }
-    if (ok && !marker_file_.empty()) ok = write_cache_file(marker_file_, "", 0);
-    if (zeros) clReleaseMemObject(zeros);
-    if (kernel) clReleaseKernel(kernel);
-    if (program) clReleaseProgram(program);
-    if (queue) clReleaseCommandQueue(queue);
-    if (context) clReleaseContext(context);
-    finish(ok);
-  }
-
-  void finish(bool ok) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    succeeded_ = ok;
-    done_ = true;
-    done_cv_.notify_all();
-  }
-
-  // The zero-filled buffer's size: larger than TrParams in double.
-  static constexpr size_t kZeroBytes = 4096;
-
-  DeviceInfo device_;
-  std::string source_, options_, kernel_, binary_file_, marker_file_;
-  std::vector<std::string> helper_;
-  std::mutex mutex_;
-  std::condition_variable done_cv_;
-  bool done_ = false, succeeded_ = false;
-  std::thread thread_;
-};
+  if (ok) ok = write_cache_file(marker_file, "", 0);
+  if (zeros) clReleaseMemObject(zeros);
+  if (kernel) clReleaseKernel(kernel);
+  if (program) clReleaseProgram(program);
+  if (queue) clReleaseCommandQueue(queue);
+  if (context) clReleaseContext(context);
+  return ok;
+}
 
 // The built programs of one context. Not thread-safe: the Context's mutex guards it.
 class ProgramCache {
@@ -336,7 +348,6 @@ class ProgramCache {
   ProgramCache(const ProgramCache&) = delete;
   ProgramCache& operator=(const ProgramCache&) = delete;
   ~ProgramCache() {
-    background_.clear();  // waits for the background builds
     for (auto& p : programs_) clReleaseProgram(p.second.program);
   }
 
@@ -348,12 +359,6 @@ class ProgramCache {
     *build_ms = 0;
     if (it != programs_.end()) return it->second;
     auto t0 = std::chrono::steady_clock::now();
-    // A background build of the same program: wait for it, then build from the caches
-    // it filled rather than compile a second time beside it.
-    if (auto job = background_.find(options); job != background_.end()) {
-      job->second->wait();
-      background_.erase(job);
-    }
     Entry entry;
     const std::string source_text = program_source();
     const std::string stem = keeps_binaries(info_) ? cache_stem(options, source_text) : "";
@@ -370,69 +375,92 @@ class ProgramCache {
     return programs_.emplace(options, entry).first->second;
   }
 
-  // Whether a program for these options was asked for before: by this cache, or by an
-  // earlier process on this device with the same driver and source whose request
-  // reached the disk cache (a marker file in cache_dir(), "program-KEY.seen", written
-  // by remember() or build_in_background(), or the program's binary where twinray
-  // keeps them). Records the request in the process, so the next call answers true.
-  // The OpenCL backend renders the first frame of a block program never asked for on
-  // this machine with the pixel kernel, which compiles in about half the time on PoCL,
-  // and builds the block program in the background (OpenCLBackend::render_into).
+  // Whether a program for these options is known to be built: asked for by this cache
+  // before, or in the disk cache for this device, driver and source (its marker,
+  // "program-KEY.seen" in cache_dir(), written once the program was in the caches by
+  // remember() or build_into_caches(), or its binary where twinray keeps them).
+  // Records the request in the process, so the next call answers true. The OpenCL
+  // backend renders the first frame of a block program not known on this machine with
+  // the pixel kernel, which compiles in about half the time on PoCL, while a build
+  // helper process builds the block program (OpenCLBackend::render_into).
   bool asked_before(const std::string& options) {
     if (!asked_.insert(options).second || programs_.count(options) != 0) return true;
     const std::string stem = cache_stem(options, program_source());
     if (stem.empty()) return false;
     std::error_code ec;
-    if (std::filesystem::exists(stem + ".seen", ec)) return true;
+    if (std::filesystem::exists(stem + ".seen", ec)) {
+      remembered_.insert(options);
+      return true;
+    }
     return keeps_binaries(info_) && std::filesystem::exists(stem + ".bin", ec);
   }
 
-  // Writes the marker that makes later processes' asked_before(options) answer true.
-  // Failures only cost the marker.
+  // Notes in the disk cache that a process asked for the program for these options
+  // ("program-KEY.asked"); whether none had before (always true without a cache
+  // folder). Without a build helper, the first process that asks renders with the pixel
+  // kernel and the next builds the block program itself.
+  bool note_request(const std::string& options) {
+    const std::string stem = cache_stem(options, program_source());
+    if (stem.empty()) return true;
+    std::error_code ec;
+    if (std::filesystem::exists(stem + ".asked", ec)) return false;
+    write_cache_file(stem + ".asked", "", 0);
+    return true;
+  }
+
+  // Writes the marker that makes later processes' asked_before(options) answer true,
+  // once per process: call it once the program was built and launched, so that it is
+  // in the caches. Failures only cost the marker.
   void remember(const std::string& options) {
+    if (!remembered_.insert(options).second) return;
     const std::string stem = cache_stem(options, program_source());
     if (!stem.empty()) write_cache_file(stem + ".seen", "", 0);
   }
 
-  // Starts building the program for these options on a thread of its own, for later
-  // processes (BackgroundBuild: PoCL's cache, twinray's binary where it keeps them, and
-  // the marker that asked_before reads), with one launch of `kernel` over a 1x1
-  // work-group. Nothing to do without a cache folder, or where this cache holds or
-  // builds the program already. get() for the same options waits for it; so do
-  // finish_background() and the destructor.
-  void build_in_background(const std::string& options, const std::string& kernel) {
-    if (programs_.count(options) != 0 || background_.count(options) != 0) return;
-    if (auto job = start_build(options, kernel, build_helper()))
-      background_.emplace(options, std::move(job));
-  }
-
-  // What a build helper process does (build_helper()): builds the program for these
-  // options as build_in_background does, on a thread of this process, and waits for
-  // it. Whether it reached the disk caches.
-  bool build_for_later_processes(const std::string& options, const std::string& kernel) {
-    std::unique_ptr<BackgroundBuild> job = start_build(options, kernel, {});
-    if (!job) return false;
-    job->wait();
-    return job->succeeded();
-  }
-
-  // Waits, at most `limit` in all, for the background builds to end; whether they all
-  // have. One still running past the limit goes on (and is waited for by get() or the
-  // destructor).
-  bool finish_background(std::chrono::milliseconds limit) {
-    const auto deadline = std::chrono::steady_clock::now() + limit;
-    for (auto it = background_.begin(); it != background_.end();) {
-      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
-          deadline - std::chrono::steady_clock::now());
-      if (!it->second->wait_for(std::max(left, std::chrono::milliseconds(0)))) return false;
-      it->second->wait();
-      it = background_.erase(it);
+  // Has the application's build helper (build_helper()) build the program for these
+  // options into the disk caches, in a detached process of its own (spawn_detached)
+  // that outlives this one, at nice 10: this process neither waits for it nor shares
+  // PoCL's one-build-at-a-time with it. The build lock ("program-KEY.lock") holds this
+  // process's id while it starts the helper, then the helper's; the helper removes it
+  // when done. Whether a build is under way: started now, or by an earlier process
+  // whose lock is live (then no second one starts). False without a helper, a cache
+  // folder, or where TWINRAY_OPENCL_BACKGROUND_BUILD=0.
+  bool build_in_helper(const std::string& options, const std::string& kernel) {
+    const std::vector<std::string> helper = build_helper();
+    if (helper.empty() || !background_build_enabled()) return false;
+    const std::string stem = cache_stem(options, program_source());
+    if (stem.empty()) return false;
+    const std::string lock = stem + ".lock";
+    if (build_in_progress(lock)) return true;
+    if (!take_build_lock(lock, ::getpid())) return build_in_progress(lock);
+    std::vector<std::string> argv = helper;
+    for (const std::string& a :
+         {std::string("--device"), std::to_string(info_.index), std::string("--options"), options,
+          std::string("--kernel"), kernel})
+      argv.push_back(a);
+    const long pid = spawn_detached(argv);
+    const std::string text = std::to_string(pid) + "\n";
+    if (pid <= 0 || !write_cache_file(lock, text.data(), text.size())) {
+      std::remove(lock.c_str());
+      return false;
     }
     return true;
   }
 
-  // How many background builds this cache has started and not yet waited for.
-  size_t background_builds() const { return background_.size(); }
+  // What the build helper process does (build_in_helper): builds the program for these
+  // options into the disk caches (build_into_caches), unless its marker is there
+  // already, and removes the build lock. Whether the program is in the caches.
+  bool build_for_later_processes(const std::string& options, const std::string& kernel) {
+    const std::string source = program_source();
+    const std::string stem = cache_stem(options, source);
+    if (stem.empty()) return false;
+    std::error_code ec;
+    const bool ok = std::filesystem::exists(stem + ".seen", ec) ||
+                    build_into_caches(info_, source, options, kernel,
+                                      keeps_binaries(info_) ? stem + ".bin" : "", stem + ".seen");
+    std::remove((stem + ".lock").c_str());
+    return ok;
+  }
 
   // The build options of every program this cache holds, one per program.
   std::vector<std::string> built_options() const {
@@ -450,18 +478,6 @@ class ProgramCache {
   }
 
  private:
-  // A BackgroundBuild of the program for these options; null without a cache folder.
-  std::unique_ptr<BackgroundBuild> start_build(const std::string& options,
-                                               const std::string& kernel,
-                                               std::vector<std::string> helper) const {
-    const std::string source = program_source();
-    const std::string stem = cache_stem(options, source);
-    if (stem.empty()) return nullptr;
-    return std::make_unique<BackgroundBuild>(info_, source, options, kernel,
-                                             keeps_binaries(info_) ? stem + ".bin" : "",
-                                             stem + ".seen", std::move(helper));
-  }
-
   // cache_dir()'s path for a program's files, "program-KEY" (the binary adds ".bin",
   // the marker ".seen"), KEY a hash of the device, the driver version, the options and
   // the whole source. Empty without a cache folder.
@@ -519,8 +535,8 @@ class ProgramCache {
   cl_context context_;
   DeviceInfo info_;
   std::map<std::string, Entry> programs_;
-  std::set<std::string> asked_;  // asked_before's answers in this process
-  std::map<std::string, std::unique_ptr<BackgroundBuild>> background_;
+  std::set<std::string> asked_;       // asked_before's answers in this process
+  std::set<std::string> remembered_;  // markers written or found by this process
 };
 
 }  // namespace opencl
