@@ -320,6 +320,10 @@ inline bool build_into_caches(const DeviceInfo& device, const std::string& sourc
   ok = ok && clEnqueueNDRangeKernel(queue, kernel, 2, nullptr, one, one, 0, nullptr, nullptr) ==
                  CL_SUCCESS;
   ok = ok && clFinish(queue) == CL_SUCCESS;
+  // Test hook: a pause between the build and the marker, so that tests can find the
+  // build under way, or kill it before its marker (tests/apps/cli_test.cpp).
+  if (const char* pause = std::getenv("TWINRAY_TEST_BUILD_PAUSE_MS"))
+    std::this_thread::sleep_for(std::chrono::milliseconds(std::atoi(pause)));
   if (ok && !binary_file.empty()) {
     const std::vector<unsigned char> binary = program_binary(program);
     ok = !binary.empty() && write_cache_file(binary_file, binary.data(), binary.size());
