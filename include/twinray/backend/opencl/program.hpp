@@ -247,8 +247,12 @@ inline bool take_build_lock(const std::string& lock, long pid) {
   return taken;
 }
 
-// Starts argv (argv[0] a path) detached: a session of its own, stdin, stdout and
-// stderr on /dev/null, no other descriptor of this process, nobody waiting for it.
+// Starts argv (argv[0] a path) detached: a process group of its own, stdin, stdout
+// and stderr on /dev/null, no other descriptor of this process, nobody waiting for it.
+// A group of its own: Ctrl-C at a terminal, sent to the foreground group, does not
+// reach it. The same session: where the scheduler groups processes by session
+// (autogroups), a helper at nice 10 yields to the session's other processes, where in
+// a session of its own it would get a share as large as theirs.
 // Its process id; 0 where it could not start. A parent that outlives it leaves it a
 // zombie until the parent ends (process_alive counts a zombie as ended).
 inline long spawn_detached(std::vector<std::string> argv) {
@@ -269,7 +273,8 @@ inline long spawn_detached(std::vector<std::string> argv) {
   sigset_t none;
   sigemptyset(&none);
   posix_spawnattr_setsigmask(&attr, &none);
-  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSID | POSIX_SPAWN_SETSIGMASK);
+  posix_spawnattr_setpgroup(&attr, 0);
+  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP | POSIX_SPAWN_SETSIGMASK);
   pid_t pid = 0;
   const int spawned = posix_spawn(&pid, args[0], &actions, &attr, args.data(), environ);
   posix_spawnattr_destroy(&attr);
