@@ -1,8 +1,7 @@
 // The `twinray` command as its own OpenCL build helper (opencl::set_build_helper): a
 // block program new to the machine is built into the disk caches by a second, detached
-// `twinray` process, started with the hidden first argument --opencl-build-helper,
-// beside the first frame's own build (PoCL builds one program at a time in a process);
-// the first process does not wait for it.
+// `twinray` process, started with the hidden first argument --opencl-build-helper once
+// the first frame is rendered; the first process does not wait for it.
 #pragma once
 
 namespace twinray_cli {

@@ -155,15 +155,19 @@ class OpenCLBackend final : public RenderBackend<T> {
     // processes, take the block kernel. On the AMD EPYC, the cold first 1080p demo frame
     // took 3.1-3.6 s with the block kernel and 2.1-2.4 s with the pixel kernel
     // (docs/performance.md). Where the application names a build helper (the `twinray`
-    // command does), a detached process builds the block program into the disk caches
-    // beside the frame, and later processes render with the pixel kernel until it is
-    // there (ProgramCache::build_in_helper); no process waits for it. Else the first
-    // process to ask takes the pixel kernel and the next builds the block program.
+    // command does), a detached process started once the frame is rendered builds the
+    // block program into the disk caches, and later processes render with the pixel
+    // kernel until it is there (ProgramCache::build_in_helper); no process waits for
+    // it. Started after the frame, not beside it, it takes no core from the frame: on
+    // 2 cores the first process was as fast either way. Else the first process to ask
+    // takes the pixel kernel and the next builds the block program.
     std::string options = options_for(entry_points);
+    std::string build_after;  // the block program's options, for the helper after the frame
     if (entry_points == TR_ENTRY_BLOCKS && new_block_program_takes_pixel() &&
         !ctx_.programs().asked_before(options)) {
-      const bool building = ctx_.programs().build_in_helper(options, kBlockKernel);
-      if (ctx_.programs().note_request(options) || building) {
+      const bool helper = ctx_.programs().helper_builds(options);
+      if (ctx_.programs().note_request(options) || helper) {
+        if (helper) build_after = options;
         entry_points = TR_ENTRY_RENDER;
         options = options_for(entry_points);
       }
@@ -225,6 +229,7 @@ class OpenCLBackend final : public RenderBackend<T> {
     ctx_.programs().save_binary(program);
     // Built and launched: in PoCL's cache, with its code for the launch's work-group.
     if (entry_points == TR_ENTRY_BLOCKS) ctx_.programs().remember(options);
+    if (!build_after.empty()) ctx_.programs().build_in_helper(build_after, kBlockKernel);
     if (info) {
       info->backend = Backend::OpenCL;
       info->device = dev.name;

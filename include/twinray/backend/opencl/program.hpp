@@ -16,7 +16,6 @@
 // kernel; a lock file tells later processes that the build is under way.
 #pragma once
 
-#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstdint>
@@ -26,7 +25,6 @@
 #include <fstream>
 #include <iterator>
 #include <map>
-#include <memory>
 #include <mutex>
 #include <set>
 #include <string>
@@ -36,7 +34,6 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <spawn.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <twinray/backend/opencl/device.hpp>
@@ -161,9 +158,9 @@ inline std::vector<unsigned char> program_binary(cl_program program) {
 // (ProgramCache::build_in_helper), where the application names one: its argv, to which
 // "--device N --options O --kernel K" are appended, and which must do what
 // ProgramCache::build_for_later_processes() does (the `twinray` command runs itself:
-// apps/twinray/build_helper.cpp). A process of its own builds beside the frame's build
-// (PoCL builds one program at a time in a process) and may outlive the application.
-// Empty (the default): nothing is built in the background.
+// apps/twinray/build_helper.cpp). A process of its own may outlive the application,
+// which then neither waits for the build at exit nor shares PoCL's one build at a time
+// in a process with it. Empty (the default): nothing is built in the background.
 inline std::vector<std::string>& build_helper_argv() {
   static std::vector<std::string>& argv = *new std::vector<std::string>;
   return argv;
@@ -426,6 +423,14 @@ class ProgramCache {
     if (!stem.empty()) write_cache_file(stem + ".seen", "", 0);
   }
 
+  // Whether build_in_helper() would build the program for these options: a build
+  // helper is named, TWINRAY_OPENCL_BACKGROUND_BUILD is not 0, and there is a cache
+  // folder.
+  bool helper_builds(const std::string& options) const {
+    return !build_helper().empty() && background_build_enabled() &&
+           !cache_stem(options, program_source()).empty();
+  }
+
   // Has the application's build helper (build_helper()) build the program for these
   // options into the disk caches, in a detached process of its own (spawn_detached)
   // that outlives this one, at nice 10: this process neither waits for it nor shares
@@ -435,10 +440,9 @@ class ProgramCache {
   // whose lock is live (then no second one starts). False without a helper, a cache
   // folder, or where TWINRAY_OPENCL_BACKGROUND_BUILD=0.
   bool build_in_helper(const std::string& options, const std::string& kernel) {
+    if (!helper_builds(options)) return false;
     const std::vector<std::string> helper = build_helper();
-    if (helper.empty() || !background_build_enabled()) return false;
     const std::string stem = cache_stem(options, program_source());
-    if (stem.empty()) return false;
     const std::string lock = stem + ".lock";
     if (build_in_progress(lock)) return true;
     if (!take_build_lock(lock, ::getpid())) return build_in_progress(lock);
