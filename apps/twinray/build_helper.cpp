@@ -3,11 +3,13 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <iostream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <sys/resource.h>
@@ -37,6 +39,12 @@ int run_build_helper(int argc, char** argv) {
                  "into the disk caches\n";
     return 2;
   }
+  // Starts once the process that started it has ended (it is then adopted by another),
+  // or after 5 s where that process goes on: the first process writes its image
+  // without the helper loading and compiling beside it.
+  const pid_t parent = getppid();
+  for (int i = 0; i < 500 && getppid() == parent; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
   // Nice 10: the build is for later processes, and should take little from the
   // foreground ones, the one that started it included.
   errno = 0;
