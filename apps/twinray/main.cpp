@@ -16,6 +16,7 @@
 
 #include <twinray/version.hpp>
 
+#include "build_helper.hpp"
 #include "cli_common.hpp"
 #include "cluster.hpp"
 #include "command.hpp"
@@ -30,12 +31,16 @@ int run_command(int argc, char** argv);
 // rank 0 prints help, versions and errors of the command line, which every rank finds
 // alike.
 int main(int argc, char** argv) {
+  // A second twinray that builds an OpenCL program for the first (build_helper.hpp).
+  if (twinray_cli::is_build_helper(argc, argv)) return twinray_cli::run_build_helper(argc, argv);
   try {
     twinray_cli::cluster::start(&argc, &argv);
   } catch (const twinray::Error& e) {
     std::cerr << "twinray: " << e.what() << "\n";
     return twinray_cli::kExitBadInput;
   }
+  // One process per rank is enough: the ranks of an MPI job build on threads.
+  if (!twinray_cli::cluster::distributed()) twinray_cli::register_build_helper();
   const int status = run_command(argc, argv);
   twinray_cli::cluster::finish(status);
   return status;

@@ -4,15 +4,21 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <map>
 #include <regex>
 #include <set>
+#include <sstream>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
+
+#include <signal.h>
+#include <sys/wait.h>
 
 #include <twinray/io/pfm.hpp>
 
@@ -452,18 +458,21 @@ TEST_CASE("status 3: an OpenCL device index that does not exist") {
   CHECK(listing(dir).empty());
 }
 
-TEST_CASE("a new block program's first OpenCL frame takes the pixel kernel, the next process not") {
-  // On CPU devices: the first process that asks for a block program renders with the
-  // pixel kernel (its program compiles in about half the time on PoCL), and leaves a
-  // marker in the cache folder; the next builds the block program. Same image.
+TEST_CASE(
+    "without the background build, a new block program's first frame takes the pixel kernel") {
+  // TWINRAY_OPENCL_BACKGROUND_BUILD=0: no helper process. On CPU devices the first
+  // process that asks for a block program renders with the pixel kernel (its program
+  // compiles in about half the time on PoCL) and notes the request in the cache
+  // folder; the next builds the block program itself and leaves its marker. Same image.
   std::string dir = fresh_folder(kWork, "tiered_kernel");
   std::vector<std::string> env = {"TWINRAY_CACHE_DIR=" + dir + "/cache", "TWINRAY_OPENCL_KERNEL",
-                                  "TWINRAY_OPENCL_FIRST_FRAME"};
+                                  "TWINRAY_OPENCL_FIRST_FRAME",
+                                  "TWINRAY_OPENCL_BACKGROUND_BUILD=0"};
   Result cpu = run_twinray(
       {"render", "demo", "-o", "cpu.pfm", "--width", "64", "--height", "48", "--backend", "cpu"},
       dir, env);
   REQUIRE_MESSAGE(cpu.status == 0, cpu.err);
-  std::vector<std::string> kernels;
+  std::vector<std::string> kernels, cache_files;
   for (const char* out : {"first.pfm", "second.pfm"}) {
     Result r = run_twinray(
         {"render", "demo", "-o", out, "--width", "64", "--height", "48", "--backend", "opencl"},
@@ -473,16 +482,276 @@ TEST_CASE("a new block program's first OpenCL frame takes the pixel kernel, the 
     REQUIRE(at != std::string::npos);
     kernels.push_back(r.out.substr(at + 9, r.out.find(',', at + 9) - at - 9));
     CHECK(read_file(dir + "/" + out) == read_file(dir + "/cpu.pfm"));
+    std::string kinds;  // the kinds of file in the cache folder, by extension
+    std::error_code ec;
+    for (const auto& e : std::filesystem::directory_iterator(dir + "/cache", ec))
+      kinds += e.path().extension().string();
+    cache_files.push_back(kinds);
   }
   Result info = run_twinray({"info"}, dir, env);
   const size_t type = info.out.find("type:");  // device [0]'s
   REQUIRE(type != std::string::npos);
   if (info.out.compare(info.out.find_first_not_of(' ', type + 5), 3, "CPU") == 0) {
-    // A CPU device, such as PoCL's (GPUs keep the pixel kernel).
+    // A CPU device, such as PoCL's (GPUs keep the pixel kernel). No build lock: nothing
+    // was built in the background; the marker comes with the second process's build.
     CHECK(kernels == std::vector<std::string>{"pixel", "blocks"});
+    CHECK(cache_files[0] == ".asked");
+    CHECK((cache_files[1] == ".asked.seen" || cache_files[1] == ".seen.asked"));
   } else {
     CHECK(kernels == std::vector<std::string>{"pixel", "pixel"});
   }
+}
+
+namespace {
+// Every file under `dir`, as paths relative to it, sorted; temporaries left out.
+std::vector<std::string> files_under(const std::string& dir) {
+  std::vector<std::string> files;
+  std::error_code ec;
+  for (auto it = std::filesystem::recursive_directory_iterator(dir, ec);
+       !ec && it != std::filesystem::recursive_directory_iterator(); it.increment(ec))
+    if (it->is_regular_file() && it->path().string().find(".tmp") == std::string::npos)
+      files.push_back(std::filesystem::relative(it->path(), dir).string());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+// The kernel a `twinray render` summary line names.
+std::string kernel_named(const std::string& out) {
+  const size_t at = out.find(", kernel ");
+  if (at == std::string::npos) return "";
+  return out.substr(at + 9, out.find_first_of(",\n", at + 9) - at - 9);
+}
+
+// How many files of twinray's cache folder `cache` end in `extension`.
+int count_files(const std::string& cache, const std::string& extension) {
+  int n = 0;
+  for (const std::string& f : files_under(cache))
+    n += f.size() > extension.size() &&
+         f.compare(f.size() - extension.size(), extension.size(), extension) == 0;
+  return n;
+}
+
+// The process id the build lock in `cache` holds; 0 where there is none.
+long lock_pid(const std::string& cache) {
+  for (const std::string& f : files_under(cache))
+    if (contains(f, ".lock")) {
+      long pid = 0;
+      std::istringstream(read_file(cache + "/" + f)) >> pid;
+      return pid;
+    }
+  return 0;
+}
+
+// The running (not zombie) build helper processes whose TWINRAY_CACHE_DIR is `cache`.
+std::vector<long> helpers_of(const std::string& cache) {
+  std::vector<long> pids;
+  std::error_code ec;
+  for (const auto& e : std::filesystem::directory_iterator("/proc", ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    const std::string stat = read_file(e.path().string() + "/stat");
+    const size_t paren = stat.rfind(')');
+    if (paren == std::string::npos || paren + 2 >= stat.size() || stat[paren + 2] == 'Z') continue;
+    const std::string cmdline = read_file(e.path().string() + "/cmdline");
+    const std::string environ = read_file(e.path().string() + "/environ");
+    if (contains(cmdline, "--opencl-build-helper") &&
+        contains(std::string(1, '\0') + environ,
+                 std::string(1, '\0') + "TWINRAY_CACHE_DIR=" + cache + std::string(1, '\0')))
+      pids.push_back(std::stol(name));
+  }
+  return pids;
+}
+
+// Waits, at most five minutes, until no build helper of `cache` runs; whether none does.
+bool helpers_done(const std::string& cache) {
+  const auto start = std::chrono::steady_clock::now();
+  while (!helpers_of(cache).empty()) {
+    if (std::chrono::steady_clock::now() - start > std::chrono::minutes(5)) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return true;
+}
+
+// Whether `twinray info` names PoCL's own kernel cache (the block kernel is the CPU
+// device's choice, and the block program is built in the background).
+bool pocl_kernel_cache() {
+  return contains(run_twinray({"info"}).out, "PoCL's own kernel cache holds the programs");
+}
+
+// The environment of the background-build tests: fresh caches in `dir`, the backend's
+// own kernel choices.
+std::vector<std::string> background_env(const std::string& dir) {
+  return {"TWINRAY_CACHE_DIR=" + dir + "/twinray", "POCL_CACHE_DIR=" + dir + "/pocl",
+          "TWINRAY_OPENCL_KERNEL", "TWINRAY_OPENCL_FIRST_FRAME", "TWINRAY_OPENCL_BACKGROUND_BUILD"};
+}
+
+std::vector<std::string> small_render(const std::string& out, const char* backend) {
+  return {"render", "demo", "-o", out, "--backend", backend, "--width", "64", "--height", "48"};
+}
+}  // namespace
+
+TEST_CASE(
+    "the first OpenCL process leaves a detached build of the block program: processes during it "
+    "take the pixel kernel, after it the block kernel, the same bits") {
+  // On PoCL with its kernel cache: the first process renders with the pixel kernel and
+  // returns while a detached helper process builds the block program into the caches
+  // (the build lock holds its id). A process started meanwhile renders with the pixel
+  // kernel and starts no second build. Once the helper is done (the marker written, the
+  // lock gone), the next process finds everything it runs in PoCL's cache and adds
+  // nothing to it. TWINRAY_TEST_BUILD_PAUSE_MS holds the helper between its build and
+  // its marker, so the build is surely under way while the first two processes run.
+  if (!pocl_kernel_cache()) return;
+  const std::string dir = fresh_folder(kWork, "startup_caches");
+  const std::string cache = dir + "/twinray";
+  std::vector<std::string> env = background_env(dir);
+  Result cpu = run_twinray(small_render("cpu.pfm", "cpu"), dir, env);
+  REQUIRE_MESSAGE(cpu.status == 0, cpu.err);
+  const std::string reference = read_file(dir + "/cpu.pfm");
+  std::vector<std::string> paused = env;
+  paused.push_back("TWINRAY_TEST_BUILD_PAUSE_MS=6000");
+
+  Result first = run_twinray(small_render("first.pfm", "opencl"), dir, paused);
+  REQUIRE_MESSAGE(first.status == 0, first.err);
+  CHECK(kernel_named(first.out) == "pixel");
+  CHECK(read_file(dir + "/first.pfm") == reference);
+  // The first process did not wait for the build: its helper runs, and holds the lock.
+  const std::vector<long> helper = helpers_of(cache);
+  CHECK(helper.size() == 1);
+  CHECK(helper == std::vector<long>{lock_pid(cache)});
+  CHECK(count_files(cache, ".seen") == 0);
+
+  Result during = run_twinray(small_render("during.pfm", "opencl"), dir, paused);
+  REQUIRE_MESSAGE(during.status == 0, during.err);
+  CHECK(kernel_named(during.out) == "pixel");
+  CHECK(read_file(dir + "/during.pfm") == reference);
+  CHECK(helpers_of(cache) == helper);  // no second build
+  CHECK(helper == std::vector<long>{lock_pid(cache)});
+
+  REQUIRE(helpers_done(cache));
+  CHECK(count_files(cache, ".seen") == 1);
+  CHECK(count_files(cache, ".lock") == 0);
+  // What PoCL compiled: the files of its program folders (its top folder holds only
+  // temporaries of its own).
+  auto compiled = [&] {
+    std::vector<std::string> files;
+    for (const std::string& f : files_under(dir + "/pocl"))
+      if (contains(f, "/")) files.push_back(f);
+    return files;
+  };
+  const std::vector<std::string> after_build = compiled();
+  bool block_code = false;  // PoCL keeps a kernel's code in a folder named after it
+  for (const std::string& f : after_build)
+    block_code = block_code || contains(f, "/tr_kernel_render_blocks/");
+  CHECK(block_code);
+  Result after = run_twinray(small_render("after.pfm", "opencl"), dir, env);
+  REQUIRE_MESSAGE(after.status == 0, after.err);
+  CHECK(kernel_named(after.out) == "blocks");
+  CHECK(read_file(dir + "/after.pfm") == reference);
+  CHECK(compiled() == after_build);
+  CHECK(helpers_of(cache).empty());
+}
+
+TEST_CASE("a killed build helper leaves no marker, and the next process renders and builds again") {
+  // SIGKILL to the helper at two moments: at once, while it compiles, and in the pause
+  // between its build and its marker (TWINRAY_TEST_BUILD_PAUSE_MS). Either way it leaves
+  // no marker and a stale lock, which the next process ignores: it renders the CPU
+  // backend's bits with the pixel kernel and starts the build again, after which a
+  // process renders them with the block kernel.
+  if (!pocl_kernel_cache()) return;
+  const std::string dir = fresh_folder(kWork, "killed_helper");
+  Result cpu = run_twinray(small_render("cpu.pfm", "cpu"), dir);
+  REQUIRE_MESSAGE(cpu.status == 0, cpu.err);
+  const std::string reference = read_file(dir + "/cpu.pfm");
+  for (const char* moment : {"compiling", "before-marker"}) {
+    CAPTURE(std::string(moment));
+    const std::string sub = fresh_folder(dir, moment);
+    const std::string cache = sub + "/twinray";
+    std::vector<std::string> env = background_env(sub);
+    std::vector<std::string> paused = env;
+    paused.push_back("TWINRAY_TEST_BUILD_PAUSE_MS=60000");
+    Result first = run_twinray(small_render("first.pfm", "opencl"), sub, paused);
+    REQUIRE_MESSAGE(first.status == 0, first.err);
+    CHECK(kernel_named(first.out) == "pixel");
+    const long helper = lock_pid(cache);
+    REQUIRE(helpers_of(cache) == std::vector<long>{helper});
+    if (std::string(moment) == "before-marker") {
+      // In the pause: PoCL holds the compiled program, the marker is not yet written.
+      const auto start = std::chrono::steady_clock::now();
+      auto compiled = [&] {
+        for (const std::string& f : files_under(sub + "/pocl"))
+          if (contains(f, "/tr_kernel_render_blocks/")) return true;
+        return false;
+      };
+      while (!compiled() && std::chrono::steady_clock::now() - start < std::chrono::minutes(5))
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      CHECK(compiled());
+    }
+    ::kill(static_cast<pid_t>(helper), SIGKILL);
+    const auto start = std::chrono::steady_clock::now();
+    while (!helpers_of(cache).empty() &&
+           std::chrono::steady_clock::now() - start < std::chrono::seconds(60))
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    REQUIRE(helpers_of(cache).empty());
+    CHECK(count_files(cache, ".seen") == 0);
+    CHECK(lock_pid(cache) == helper);  // the stale lock is left
+
+    Result next = run_twinray(small_render("next.pfm", "opencl"), sub, env);
+    REQUIRE_MESSAGE(next.status == 0, next.err);
+    CHECK(kernel_named(next.out) == "pixel");
+    CHECK(read_file(sub + "/next.pfm") == reference);
+    // A new build replaced the stale lock, unless it already ended.
+    CHECK((lock_pid(cache) != helper || count_files(cache, ".seen") == 1));
+    REQUIRE(helpers_done(cache));
+    CHECK(count_files(cache, ".seen") == 1);
+    CHECK(count_files(cache, ".lock") == 0);
+    Result later = run_twinray(small_render("later.pfm", "opencl"), sub, env);
+    REQUIRE_MESSAGE(later.status == 0, later.err);
+    CHECK(kernel_named(later.out) == "blocks");
+    CHECK(read_file(sub + "/later.pfm") == reference);
+  }
+}
+
+TEST_CASE(
+    "an OpenCL process killed while it compiles leaves caches the next processes render from") {
+  // SIGKILL to a first process with empty caches as soon as PoCL writes its first cache
+  // file (programs are being built). A marker left in twinray's cache folder means its
+  // program reached PoCL's cache. The next two processes render the CPU backend's bits.
+  std::string dir = fresh_folder(kWork, "killed_build");
+  Result cpu = run_twinray(small_render("cpu.pfm", "cpu"), dir);
+  REQUIRE_MESSAGE(cpu.status == 0, cpu.err);
+  const std::string reference = read_file(dir + "/cpu.pfm");
+  const std::vector<std::string> env = background_env(dir);
+  std::vector<std::string> argv = small_render("killed.pfm", "opencl");
+  argv.insert(argv.begin(), kTwinray);
+  test_support::RunOptions options;
+  options.cwd = dir;
+  options.env = env;
+  test_support::Process p = test_support::Process::start(argv, options);
+  const auto start = std::chrono::steady_clock::now();
+  // Polls until PoCL's first file, or the process ends on its own (then it is collected).
+  auto running = [&] {
+    siginfo_t status{};
+    return waitid(P_PID, static_cast<id_t>(p.pid()), &status, WEXITED | WNOHANG | WNOWAIT) == 0 &&
+           status.si_pid == 0;
+  };
+  while (files_under(dir + "/pocl").empty() && running() &&
+         std::chrono::steady_clock::now() - start < std::chrono::seconds(120))
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  ::kill(p.pid(), SIGKILL);
+  p.finish();
+  bool marker = false, block_code = false;
+  for (const std::string& f : files_under(dir + "/twinray"))
+    marker = marker || contains(f, ".seen");
+  for (const std::string& f : files_under(dir + "/pocl"))
+    block_code = block_code || contains(f, "/tr_kernel_render_blocks/");
+  CHECK((!marker || block_code));
+  for (const char* out : {"next.pfm", "later.pfm"}) {
+    CAPTURE(std::string(out));
+    Result r = run_twinray(small_render(out, "opencl"), dir, env);
+    REQUIRE_MESSAGE(r.status == 0, r.err);
+    CHECK(read_file(dir + "/" + out) == reference);
+  }
+  CHECK(helpers_done(dir + "/twinray"));
 }
 
 namespace {

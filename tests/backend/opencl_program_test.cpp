@@ -3,14 +3,20 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <unistd.h>
+#include <fstream>
 #include <mutex>
 #include <string>
 #include <utility>
+#include <thread>
 #include <vector>
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <twinray/twinray.hpp>
 
@@ -152,11 +158,18 @@ TEST_CASE("a program is asked for for the first time once per machine") {
     CHECK_FALSE(first.asked_before(a));
     CHECK(first.asked_before(a));
     CHECK_FALSE(first.asked_before(b));
-    // A later process with the same cache folder: the marker files remember.
+    // A later process with the same cache folder: only a request whose program reached
+    // the disk cache (its marker written) is remembered.
+    CHECK_FALSE(opencl::ProgramCache(shared.context(), shared.info()).asked_before(a));
+    first.remember(a);
+    first.remember(b);
     opencl::ProgramCache later(shared.context(), shared.info());
     CHECK(later.asked_before(a));
     CHECK(later.asked_before(b));
     CHECK_FALSE(later.asked_before("-DTR_TEST_OPTIONS_C"));
+    // Written whole or not at all: no temporary is left beside the markers.
+    for (const auto& e : std::filesystem::directory_iterator(dir))
+      CHECK(e.path().filename().string().find(".tmp") == std::string::npos);
   }
   {
     // No disk cache: only the process remembers.
@@ -164,17 +177,125 @@ TEST_CASE("a program is asked for for the first time once per machine") {
     opencl::ProgramCache first(shared.context(), shared.info());
     CHECK_FALSE(first.asked_before(a));
     CHECK(first.asked_before(a));
+    first.remember(a);
     opencl::ProgramCache later(shared.context(), shared.info());
     CHECK_FALSE(later.asked_before(a));
   }
   std::filesystem::remove_all(dir);
 }
 
+TEST_CASE("a build lock is taken once, and a stale one is replaced") {
+  namespace fs = std::filesystem;
+  const std::string dir = fresh_dir("lock");
+  const std::string lock = dir + "/program-X.lock";
+  const long self = getpid();
+  CHECK_FALSE(opencl::build_in_progress(lock));
+  REQUIRE(opencl::take_build_lock(lock, self));
+  CHECK(opencl::build_lock_pid(lock) == self);
+  CHECK(opencl::build_in_progress(lock));
+  CHECK_FALSE(opencl::take_build_lock(lock, self));  // a live build holds it
+  // An ended process, collected or a zombie, holds no lock.
+  const pid_t child = fork();
+  if (child == 0) _exit(0);
+  REQUIRE(child > 0);
+  const auto start = std::chrono::steady_clock::now();
+  while (opencl::process_alive(child) &&
+         std::chrono::steady_clock::now() - start < std::chrono::seconds(30))
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  CHECK_FALSE(opencl::process_alive(child));  // a zombie: not collected yet
+  fs::remove(lock);
+  REQUIRE(opencl::take_build_lock(lock, child));
+  CHECK_FALSE(opencl::build_in_progress(lock));
+  int status = 0;
+  waitpid(child, &status, 0);
+  CHECK_FALSE(opencl::build_in_progress(lock));
+  CHECK(opencl::take_build_lock(lock, self));  // replaces the stale lock
+  CHECK(opencl::build_lock_pid(lock) == self);
+  // A lock older than kBuildLockMaxAge is stale even where its process runs (the id
+  // may have been reused).
+  fs::last_write_time(
+      lock, fs::file_time_type::clock::now() - opencl::kBuildLockMaxAge - std::chrono::minutes(1));
+  CHECK_FALSE(opencl::build_in_progress(lock));
+  CHECK(opencl::take_build_lock(lock, self));
+  CHECK(opencl::build_in_progress(lock));
+  // An unreadable lock (no process id) is stale too.
+  fs::remove(lock);
+  { std::ofstream(lock) << "x"; }
+  CHECK_FALSE(opencl::build_in_progress(lock));
+  for (const auto& e : fs::directory_iterator(dir))
+    CHECK(e.path().filename().string().find(".tmp") == std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("a build helper is started once per program while it runs, and again once it is killed") {
+  // The helper here is a shell that counts its starts; it never builds, so the test
+  // needs no compiler.
+  namespace fs = std::filesystem;
+  const std::string dir = fresh_dir("helper");
+  const std::string starts = dir + "/starts";
+  ScopedEnv cache("TWINRAY_CACHE_DIR", (dir + "/cache").c_str());
+  ScopedEnv on("TWINRAY_OPENCL_BACKGROUND_BUILD", nullptr);
+  opencl::Context& shared = opencl::shared_context(-1);
+  const std::string options = "-DTR_TEST_OPTIONS_HELPER";
+  auto lines = [&] {
+    std::ifstream f(starts);
+    int n = 0;
+    for (std::string line; std::getline(f, line);) ++n;
+    return n;
+  };
+  auto wait_for_lines = [&](int n) {
+    const auto start = std::chrono::steady_clock::now();
+    while (lines() < n && std::chrono::steady_clock::now() - start < std::chrono::seconds(30))
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    return lines();
+  };
+  std::string lock;
+  {
+    opencl::ProgramCache none(shared.context(), shared.info());
+    CHECK_FALSE(none.build_in_helper(options, "k"));  // no helper named
+  }
+  opencl::set_build_helper(
+      {"/bin/sh", "-c", "echo started >> " + starts + "; exec sleep 60", "sh"});
+  opencl::ProgramCache first(shared.context(), shared.info());
+  CHECK(first.build_in_helper(options, "k"));
+  CHECK(wait_for_lines(1) == 1);
+  for (const auto& e : fs::directory_iterator(dir + "/cache"))
+    if (e.path().extension() == ".lock") lock = e.path().string();
+  REQUIRE_FALSE(lock.empty());
+  const long helper = opencl::build_lock_pid(lock);
+  CHECK(opencl::process_alive(helper));
+  // Another process while it runs: a build is under way, none is started.
+  opencl::ProgramCache second(shared.context(), shared.info());
+  CHECK(second.build_in_helper(options, "k"));
+  CHECK(opencl::build_lock_pid(lock) == helper);
+  {
+    ScopedEnv off("TWINRAY_OPENCL_BACKGROUND_BUILD", "0");
+    opencl::ProgramCache third(shared.context(), shared.info());
+    CHECK_FALSE(third.build_in_helper(options, "k"));
+  }
+  // Killed: its lock is stale, and the next request starts a new helper.
+  kill(static_cast<pid_t>(helper), SIGKILL);
+  int status = 0;
+  waitpid(static_cast<pid_t>(helper), &status, 0);
+  CHECK_FALSE(opencl::build_in_progress(lock));
+  opencl::ProgramCache after(shared.context(), shared.info());
+  CHECK(after.build_in_helper(options, "k"));
+  CHECK(wait_for_lines(2) == 2);
+  const long restarted = opencl::build_lock_pid(lock);
+  CHECK(restarted != helper);
+  CHECK(opencl::process_alive(restarted));
+  kill(static_cast<pid_t>(restarted), SIGKILL);
+  waitpid(static_cast<pid_t>(restarted), &status, 0);
+  CHECK(lines() == 2);
+  opencl::set_build_helper({});
+  fs::remove_all(dir);
+}
+
 TEST_CASE("a block program's first frame on a machine takes the pixel kernel, the same image") {
   // On CPU devices shaded frames take the block kernel; while its program has never
   // been asked for on this machine (PoCL's cache is cold for it), a frame takes the
   // pixel kernel, whose program compiles in about half the time, and the next frame
-  // builds the block program.
+  // takes the block kernel.
   namespace fs = std::filesystem;
   const std::string dir = fresh_dir("tiered");
   ScopedEnv cache("TWINRAY_CACHE_DIR", dir.c_str());
@@ -207,31 +328,48 @@ TEST_CASE("a block program's first frame on a machine takes the pixel kernel, th
     }
     return kernels;
   };
-  auto markers = [](const std::string& folder) {
+  auto markers = [](const std::string& folder, const char* extension = ".seen") {
     int n = 0;
-    for (const auto& e : fs::directory_iterator(folder)) n += e.path().extension() == ".seen";
+    for (const auto& e : fs::directory_iterator(folder)) n += e.path().extension() == extension;
     return n;
   };
   if (!device.is_cpu) {
     CHECK(frames(2) == std::vector<std::string>{"pixel", "pixel"});
     return;
   }
-  // "+": a block program was in the process by then.
+  // No build helper is named in this process: nothing is built in the background.
+  REQUIRE(opencl::build_helper().empty());
+  // "+": a block program was in the process by then; once launched, its marker is
+  // written.
   CHECK(frames(2) == std::vector<std::string>{"pixel", "blocks+"});
   CHECK(markers(dir) == 1);
   CHECK(frames(1) == std::vector<std::string>{"blocks+"});  // a later process
+  {
+    // Processes of one frame: the first notes its request and takes the pixel kernel,
+    // the next builds the block program and leaves the marker.
+    const std::string one = fresh_dir("tiered-one-frame");
+    ScopedEnv one_cache("TWINRAY_CACHE_DIR", one.c_str());
+    CHECK(frames(1) == std::vector<std::string>{"pixel"});
+    CHECK(markers(one, ".asked") == 1);
+    CHECK(markers(one) == 0);
+    CHECK(frames(1) == std::vector<std::string>{"blocks+"});
+    CHECK(markers(one) == 1);
+    CHECK(frames(1) == std::vector<std::string>{"blocks+"});
+    fs::remove_all(one);
+  }
   for (const char* forced : {"TWINRAY_OPENCL_KERNEL", "TWINRAY_OPENCL_FIRST_FRAME"}) {
     CAPTURE(forced);
     const std::string other = fresh_dir("tiered-forced");
     ScopedEnv set(forced, "blocks");
     ScopedEnv other_cache("TWINRAY_CACHE_DIR", other.c_str());
     CHECK(frames(1) == std::vector<std::string>{"blocks+"});
-    CHECK(markers(other) == 0);  // nothing asked for: nothing to remember
+    CHECK(markers(other, ".asked") == 0);  // nothing asked for: nothing noted
     fs::remove_all(other);
   }
   {
     ScopedEnv none("TWINRAY_CACHE_DIR", "");  // nothing remembered between processes
     CHECK(frames(2) == std::vector<std::string>{"pixel", "blocks+"});
+    CHECK(frames(1) == std::vector<std::string>{"pixel"});
   }
   fs::remove_all(dir);
 }

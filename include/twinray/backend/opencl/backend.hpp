@@ -70,6 +70,9 @@ class OpenCLBackend final : public RenderBackend<T> {
                       "backend");
   }
 
+  // The block kernel (kernels/render.cl).
+  static constexpr const char* kBlockKernel = "tr_kernel_render_blocks";
+
   Backend kind() const override { return Backend::OpenCL; }
   PackOptions pack_options() const override {
     PackOptions options;
@@ -146,16 +149,26 @@ class OpenCLBackend final : public RenderBackend<T> {
     auto options_for = [&](int entry) {
       return build_options(dev, features, sizeof(T) == 8, entry, request.options.specialize);
     };
-    // The first frame that needs a block program never asked for on this machine (no
-    // marker in the disk cache: PoCL's cache is cold for it too) renders with the pixel
-    // kernel, the same image, whose program PoCL compiles in about half the time; later
-    // frames, and later processes, build the block program. A cold first frame so
-    // takes about two thirds of the time (docs/performance.md, "PoCL program build").
+    // The first frame that needs a block program not yet in the disk caches (no marker:
+    // PoCL's cache is cold for it too) renders with the pixel kernel, the same image,
+    // whose program PoCL compiles in about half the time; later frames, and later
+    // processes, take the block kernel (docs/performance.md, "PoCL program build").
+    // Where the application names a build helper (the `twinray` command does), a
+    // detached process started once the frame is rendered builds the block program into
+    // the disk caches, and later processes render with the pixel kernel until it is
+    // there (ProgramCache::build_in_helper); no process waits for it. Started after the
+    // frame, not beside it, it takes no core from the frame. Else the first process to
+    // ask takes the pixel kernel and the next builds the block program.
     std::string options = options_for(entry_points);
+    std::string build_after;  // the block program's options, for the helper after the frame
     if (entry_points == TR_ENTRY_BLOCKS && new_block_program_takes_pixel() &&
         !ctx_.programs().asked_before(options)) {
-      entry_points = TR_ENTRY_RENDER;
-      options = options_for(entry_points);
+      const bool helper = ctx_.programs().helper_builds(options);
+      if (ctx_.programs().note_request(options) || helper) {
+        if (helper) build_after = options;
+        entry_points = TR_ENTRY_RENDER;
+        options = options_for(entry_points);
+      }
     }
     ProgramCache::Entry& program = ctx_.programs().get(options, &built_now, &build_ms);
 
@@ -204,6 +217,9 @@ class OpenCLBackend final : public RenderBackend<T> {
     }
     transfer_ms += sample_plan::ms_since(t_read);
     ctx_.programs().save_binary(program);
+    // Built and launched: in PoCL's cache, with its code for the launch's work-group.
+    if (entry_points == TR_ENTRY_BLOCKS) ctx_.programs().remember(options);
+    if (!build_after.empty()) ctx_.programs().build_in_helper(build_after, kBlockKernel);
     if (info) {
       info->backend = Backend::OpenCL;
       info->device = dev.name;
