@@ -33,11 +33,7 @@ int main(int argc, char** argv) {
   std::string output = "ao.png";
   if (!example::parse_args(argc, argv, &kind, &output)) return 2;
   try {
-    const twinray::Scene<float> scene = example::street();
-    twinray::RenderOptions options;
-    options.backend = kind;
-    auto backend = twinray::make_backend<float>(options);
-    backend->set_scene(twinray::share(twinray::pack_scene(scene, backend->pack_options())));
+    auto backend = example::street_backend(kind);
 
     const int width = 480, height = 270, samples = 16;
     const float reach = 6.0f;  // a tenth of the 60 m street

@@ -13,11 +13,7 @@ int main(int argc, char** argv) {
   std::string output = "lidar.ply";
   if (!example::parse_args(argc, argv, &kind, &output)) return 2;
   try {
-    const twinray::Scene<float> scene = example::street();
-    twinray::RenderOptions options;
-    options.backend = kind;
-    auto backend = twinray::make_backend<float>(options);
-    backend->set_scene(twinray::share(twinray::pack_scene(scene, backend->pack_options())));
+    auto backend = example::street_backend(kind);
 
     const int beams = 64, steps = 2048;
     const glm::vec3 sensor(0.5f, 1.8f, 0.5f);

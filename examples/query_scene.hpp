@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <memory>
 #include <string>
 
 #include <twinray/twinray.hpp>
@@ -86,6 +87,15 @@ inline twinray::Scene<float> street() {
   s.add(pillar(-3, 5, 0.3f, 5, 16));
   s.add(torus({1.5f, 1.0f, 4.0f}, 1.2f, 0.45f, 48, 24));
   return s;
+}
+
+// A backend of that kind with the street packed and set: what both examples query.
+inline std::unique_ptr<twinray::RenderBackend<float>> street_backend(twinray::Backend kind) {
+  twinray::RenderOptions options;
+  options.backend = kind;
+  auto backend = twinray::make_backend<float>(options);
+  backend->set_scene(twinray::share(twinray::pack_scene(street(), backend->pack_options())));
+  return backend;
 }
 
 // --backend cpu|opencl and --output FILE; false (with a message) for anything else.

@@ -92,22 +92,12 @@ class AutoBackend final : public RenderBackend<T> {
 
   void render_into(const RenderRequest<T>& request, Image<T>& image,
                    RenderInfo* info = nullptr) override {
-    if (active_->kind() == Backend::Cpu) return active_->render_into(request, image, info);
-    try {
-      return active_->render_into(request, image, info);
-    } catch (const Error& e) {
-      if (e.kind() == ErrorKind::InvalidInput) throw;
-      log_note(options_,
-               std::string("backend auto: OpenCL failed, using the CPU (") + e.what() + ")");
-      active_ = std::make_unique<cpu::CpuBackend<T>>();
-      active_->set_scene(scene_);
-      return active_->render_into(request, image, info);
-    }
+    with_fallback([&] { active_->render_into(request, image, info); });
   }
 
  protected:
-  // Queries go to the backend that renders (OpenCL until it fails, then the CPU): both
-  // give the same bits.
+  // Queries go where frames go (OpenCL until it fails, then the CPU): both backends give
+  // the same bits.
   void intersect_rays(const Ray<T>* rays, size_t n, Hit<T>* hits, unsigned extras,
                       HitExtra<T>* extra_out) override {
     with_fallback(
@@ -118,6 +108,8 @@ class AutoBackend final : public RenderBackend<T> {
   }
 
  private:
+  // Runs `run` on the active backend; on an OpenCL failure other than bad input, says
+  // why, moves to the CPU for good and runs it again there.
   template <class F>
   void with_fallback(F&& run) {
     if (active_->kind() == Backend::Cpu) return run();
