@@ -17,6 +17,9 @@
 #include <twinray/scene/validate.hpp>
 #include <twinray/io/atomic_file.hpp>
 #include <twinray/io/pfm.hpp>
+#ifdef TWINRAY_WITH_OPENEXR
+#include <twinray/io/exr.hpp>
+#endif
 #include <twinray/io/png.hpp>
 
 #include <twinray/scene/demo_scene.hpp>
@@ -93,12 +96,13 @@ void add_shared_options(CLI::App& app, SharedOptions& o, unsigned extras) {
       ->check(CLI::Range(1, 4096));
   if (extras & kOptionAov)
     app.add_option("--aov", o.aov,
-                   "write, as PFM, instead of the shaded image: depth (primary hit "
+                   "write, as PFM or EXR, instead of the shaded image: depth (primary hit "
                    "distance, inf for no hit), normal (geometric normal, 0 for no hit), "
                    "shading-normal (interpolated vertex normal where a mesh has them, else "
-                   "the geometric one), uv (texture coordinates u, v, 0) or object (object "
-                   "index, -1 for no hit)")
-        ->check(CLI::IsMember({"depth", "normal", "shading-normal", "uv", "object"}));
+                   "the geometric one), uv (texture coordinates u, v, 0), object (object "
+                   "index, -1 for no hit); or all: the shaded image and every AOV as named "
+                   "channels of one .exr")
+        ->check(CLI::IsMember({"depth", "normal", "shading-normal", "uv", "object", "all"}));
   app.add_flag("--quiet", o.quiet, "no progress bar");
   app.add_flag("--strict", o.strict,
                "a missing or unreadable .mtl or texture file, or an unknown usemtl name, is an "
@@ -197,7 +201,8 @@ void apply_shared_options(twinray::io::SceneFile<T>& f, const SharedOptions& o) 
   if (o.no_shadows) r.shadows = false;
   if (o.no_glaze) r.glaze = false;
   if (!o.terms.empty()) r.terms = parse_terms(o.terms);
-  if (!o.aov.empty())
+  // --aov all renders each output in turn (cmd_render.cpp), starting from the shaded one.
+  if (!o.aov.empty() && o.aov != "all")
     r.output = o.aov == "depth"            ? twinray::Output::Depth
                : o.aov == "normal"         ? twinray::Output::Normal
                : o.aov == "shading-normal" ? twinray::Output::ShadingNormal
@@ -317,7 +322,8 @@ std::string pixels_key(const twinray::io::SceneFile<T>& f, const std::string& pr
 
 // ---- outputs ----
 
-ImageFormat check_output_path(const std::string& path, bool pfm_only, const std::string& option) {
+ImageFormat check_output_path(const std::string& path, OutputNeeds needs,
+                              const std::string& option) {
   if (path.empty()) usage_error(option + ": the output path is empty");
   size_t slash = path.find_last_of('/');
   size_t dot = path.find_last_of('.');
@@ -333,12 +339,23 @@ ImageFormat check_output_path(const std::string& path, bool pfm_only, const std:
     format = ImageFormat::Pfm;
   else if (ext == ".ppm")
     format = ImageFormat::Ppm;
+  else if (ext == ".exr")
+    format = ImageFormat::Exr;
   else
     usage_error(option + " " + path + ": unknown image format \"" + ext +
-                "\"; the output's extension must be .png, .pfm or .ppm");
-  if (pfm_only && format != ImageFormat::Pfm)
+                "\"; the output's extension must be .png, .pfm, .ppm or .exr");
+  if (needs == OutputNeeds::Float && format != ImageFormat::Pfm && format != ImageFormat::Exr)
     usage_error(option + " " + path +
-                ": --aov writes 32-bit float values; the output must be .pfm");
+                ": --aov writes 32-bit float values; the output must be .pfm or .exr");
+  if (needs == OutputNeeds::Channels && format != ImageFormat::Exr)
+    usage_error(option + " " + path +
+                ": --aov all writes named channels into one file; the output must be .exr");
+#ifndef TWINRAY_WITH_OPENEXR
+  if (format == ImageFormat::Exr)
+    usage_error(option + " " + path +
+                ": this twinray was built without OpenEXR, so it cannot write .exr (install "
+                "libopenexr-dev on Debian and rebuild), or write .pfm");
+#endif
   std::string folder =
       slash == std::string::npos ? "." : (slash == 0 ? "/" : path.substr(0, slash));
   struct stat st {};
@@ -349,7 +366,7 @@ ImageFormat check_output_path(const std::string& path, bool pfm_only, const std:
 
 template <class T>
 void write_image(const std::string& path, const twinray::Image<T>& image) {
-  switch (check_output_path(path, false)) {
+  switch (check_output_path(path, OutputNeeds::Any)) {
     case ImageFormat::Png:
       twinray::io::write_png(path, image);
       return;
@@ -366,7 +383,29 @@ void write_image(const std::string& path, const twinray::Image<T>& image) {
       twinray::io::write_file_atomically(path, bytes);
       return;
     }
+    case ImageFormat::Exr:
+      write_exr_channels<T>(path, image.width, image.height,
+                            {{"R", &image, 0}, {"G", &image, 1}, {"B", &image, 2}});
+      return;
   }
+}
+
+template <class T>
+void write_exr_channels(const std::string& path, int width, int height,
+                        const std::vector<ExrChannelOf<T>>& channels) {
+#ifdef TWINRAY_WITH_OPENEXR
+  std::vector<twinray::io::ExrChannel> out;
+  for (const ExrChannelOf<T>& c : channels) {
+    if (c.image->width != width || c.image->height != height)
+      throw twinray::Error(twinray::ErrorKind::RuntimeFailure,
+                           path + ": channel " + c.name + " is not of the image's size");
+    out.push_back({c.name, twinray::io::channel_of(*c.image, c.component)});
+  }
+  twinray::io::write_exr(path, width, height, out);
+#else
+  (void)width, (void)height, (void)channels;
+  check_output_path(path, OutputNeeds::Any);  // refuses .exr, naming the missing package
+#endif
 }
 
 // ---- progress ----
@@ -485,7 +524,9 @@ std::string summary_line(const std::string& output, int width, int height, int s
   template twinray::io::SceneFile<T> prepare_scene<T>(const std::string&, const std::string&,    \
                                                       const SharedOptions&);                     \
   template std::string pixels_key<T>(const twinray::io::SceneFile<T>&, const std::string&);      \
-  template void write_image<T>(const std::string&, const twinray::Image<T>&);
+  template void write_image<T>(const std::string&, const twinray::Image<T>&);                    \
+  template void write_exr_channels<T>(const std::string&, int, int,                              \
+                                      const std::vector<ExrChannelOf<T>>&);
 TWINRAY_CLI_INSTANTIATE(float)
 TWINRAY_CLI_INSTANTIATE(double)
 #undef TWINRAY_CLI_INSTANTIATE

@@ -20,6 +20,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 #include <twinray/core/error.hpp>
@@ -137,13 +138,31 @@ extern template class SceneRenderer<float>;
 extern template class SceneRenderer<double>;
 
 // ---- output images ----
-enum class ImageFormat { Png, Pfm, Ppm };
+enum class ImageFormat { Png, Pfm, Ppm, Exr };
+
+// What an output must hold: any image, 32-bit floats (--aov: .pfm or .exr), or named
+// channels (--aov all: .exr).
+enum class OutputNeeds { Any, Float, Channels };
 
 // The format of an output path from its extension, checked before any rendering:
-// .png, .pfm or .ppm (only .pfm when `pfm_only`), in a folder that exists.
-// `option` names the option in messages (e.g. "-o").
-ImageFormat check_output_path(const std::string& path, bool pfm_only,
+// .png, .pfm, .ppm or .exr (.exr only in a build with OpenEXR), as `needs` allows, in a
+// folder that exists. `option` names the option in messages (e.g. "-o").
+ImageFormat check_output_path(const std::string& path, OutputNeeds needs,
                               const std::string& option = "-o");
+
+// One channel of an EXR: component `component` (0, 1, 2) of `image`.
+template <class T>
+struct ExrChannelOf {
+  std::string name;
+  const twinray::Image<T>* image;
+  int component;
+};
+
+// Writes the channels, all of width x height, as 32-bit floats into one .exr,
+// atomically (io/exr.hpp).
+template <class T>
+void write_exr_channels(const std::string& path, int width, int height,
+                        const std::vector<ExrChannelOf<T>>& channels);
 
 // Writes atomically (temporary file + rename): complete or absent.
 template <class T>

@@ -1,14 +1,20 @@
-// PNG (clamp, then round), PFM (exact floats, bottom-to-top rows) and atomic writes.
+// PNG (clamp, then round), PFM (exact floats, bottom-to-top rows), EXR (exact float
+// channels, read back through OpenEXR) and atomic writes.
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
 
 #include <twinray/io/pfm.hpp>
 #include <twinray/io/png.hpp>
+#ifdef TWINRAY_WITH_OPENEXR
+#include <twinray/io/exr.hpp>
+#endif
 
 #include "support/refusal.hpp"
 
@@ -90,3 +96,103 @@ TEST_CASE("a failed write leaves no partial file and keeps the earlier one") {
   }
   CHECK(entries == 1);  // no temporary left behind
 }
+
+// ---- OpenEXR (io/exr.hpp), in a build with OpenEXR (twinray::exr) ----
+#ifdef TWINRAY_WITH_OPENEXR
+namespace {
+uint32_t bits_of(float v) {
+  uint32_t b;
+  std::memcpy(&b, &v, 4);
+  return b;
+}
+}  // namespace
+
+TEST_CASE_TEMPLATE("EXR round trip through OpenEXR keeps every float bit as FLOAT R, G, B", T,
+                   float, double) {
+  TempDir dir("twinray-io-test");
+  Image<T> img(5, 3);
+  for (size_t i = 0; i < img.rgb.size(); ++i) img.rgb[i] = static_cast<T>(0.1 * i - 0.3);
+  img.pixel(2, 1)[1] = static_cast<T>(1e30);  // HDR values, infinities, NaN, -0 are kept
+  img.pixel(4, 2)[0] = static_cast<T>(INFINITY);
+  img.pixel(0, 0)[2] = static_cast<T>(-0.0);
+  img.pixel(3, 0)[1] = static_cast<T>(1e-40);  // a float denormal
+  const std::string file = (dir.path / "x.exr").string();
+  io::write_exr(file, img);
+  // Read with OpenEXR's own reader (io::read_exr wraps Imf::InputFile); the channels
+  // are stored as 32-bit floats, not half.
+  Imf::InputFile in(file.c_str());
+  std::vector<std::string> names;
+  for (auto it = in.header().channels().begin(); it != in.header().channels().end(); ++it) {
+    names.push_back(it.name());
+    CHECK(it.channel().type == Imf::FLOAT);
+  }
+  CHECK(names == std::vector<std::string>{"B", "G", "R"});  // OpenEXR sorts by name
+  io::ExrImage back = io::read_exr(file);
+  REQUIRE(back.width == 5);
+  REQUIRE(back.height == 3);
+  const char* rgb[3] = {"R", "G", "B"};
+  for (int c = 0; c < 3; ++c) {
+    const io::ExrChannel* ch = back.find(rgb[c]);
+    REQUIRE(ch != nullptr);
+    for (int y = 0; y < 3; ++y)
+      for (int x = 0; x < 5; ++x) {
+        CAPTURE(x);
+        CAPTURE(y);
+        CHECK(bits_of(ch->values[static_cast<size_t>(y) * 5 + x]) ==
+              bits_of(static_cast<float>(img.pixel(x, y)[c])));
+      }
+  }
+}
+
+TEST_CASE("EXR: named channels in one file, and bad channel lists refused") {
+  TempDir dir("twinray-io-test");
+  const std::string file = (dir.path / "aov.exr").string();
+  std::vector<io::ExrChannel> channels = {
+      {"Z", {1.5f, INFINITY, 2.0f, 3.0f, 4.0f, 5.0f}},
+      {"N.X", {0, 1, 0, -1, 0.5f, 0.25f}},
+      {"object", {-1, 0, 1, 2, 3, 4}},
+  };
+  io::write_exr(file, 3, 2, channels);
+  io::ExrImage back = io::read_exr(file);
+  CHECK(back.width == 3);
+  CHECK(back.height == 2);
+  REQUIRE(back.channels.size() == 3);
+  for (const io::ExrChannel& c : channels) {
+    const io::ExrChannel* got = back.find(c.name);
+    REQUIRE_MESSAGE(got != nullptr, c.name);
+    CHECK(got->values == c.values);
+  }
+  // The wrong number of values, a name given twice, an empty name: refused, nothing written.
+  const std::string other = (dir.path / "bad.exr").string();
+  CHECK(test_support::refusal([&] {
+          io::write_exr(other, 3, 2, {{"Z", {1, 2}}});
+        }).find("not of width x height") != std::string::npos);
+  CHECK_THROWS_AS(
+      io::write_exr(other, 3, 2, {{"Z", std::vector<float>(6)}, {"Z", std::vector<float>(6)}}),
+      Error);
+  CHECK_THROWS_AS(io::write_exr(other, 3, 2, {{"", std::vector<float>(6)}}), Error);
+  CHECK(!fs::exists(other));
+}
+
+TEST_CASE("EXR: a failed write keeps the earlier file, and a non-EXR file is refused on reading") {
+  TempDir dir("twinray-io-test");
+  const std::string file = (dir.path / "out.exr").string();
+  Image<float> good(2, 2);
+  good.pixel(1, 1)[0] = 0.75f;
+  io::write_exr(file, good);
+  const std::string before = slurp(file);
+  CHECK(before.substr(0, 4) == std::string("\x76\x2f\x31\x01", 4));  // OpenEXR's magic number
+  // A "folder" that is a file: the write fails for everybody, root included.
+  CHECK_THROWS_AS(io::write_exr((fs::path(file) / "sub.exr").string(), good), Error);
+  CHECK(slurp(file) == before);
+  CHECK(std::distance(fs::directory_iterator(dir.path), fs::directory_iterator()) == 1);
+  std::ofstream(dir.path / "text.exr") << "not an image";
+  CHECK(test_support::refusal([&] {
+          io::read_exr((dir.path / "text.exr").string());
+        }).find("cannot read as EXR") != std::string::npos);
+}
+#else
+TEST_CASE("EXR: this build has no OpenEXR") {
+  MESSAGE("OpenEXR (libopenexr-dev) not found at configure time: the EXR writer is not tested");
+}
+#endif
