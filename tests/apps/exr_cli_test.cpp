@@ -15,9 +15,11 @@
 #include <twinray/io/exr.hpp>
 #endif
 
+#include "support/float_bits.hpp"
 #include "support/subprocess.hpp"
 
 using test_support::contains;
+using test_support::float_bits;
 using test_support::fresh_folder;
 using test_support::listing;
 using test_support::Result;
@@ -69,12 +71,6 @@ TEST_CASE("exr: --aov all with an output other than .exr is refused (status 2)")
 #ifdef TWINRAY_WITH_OPENEXR
 namespace {
 
-uint32_t bits_of(float v) {
-  uint32_t b;
-  std::memcpy(&b, &v, 4);
-  return b;
-}
-
 // Whether channel `name` of `exr` holds component c of `pfm`, bit for bit.
 void check_channel(const twinray::io::ExrImage& exr, const std::string& name,
                    const twinray::Image<float>& pfm, int c) {
@@ -86,8 +82,8 @@ void check_channel(const twinray::io::ExrImage& exr, const std::string& name,
   size_t differ = 0;
   for (int y = 0; y < pfm.height; ++y)
     for (int x = 0; x < pfm.width; ++x)
-      if (bits_of(ch->values[static_cast<size_t>(y) * pfm.width + x]) !=
-          bits_of(pfm.pixel(x, y)[c]))
+      if (float_bits(ch->values[static_cast<size_t>(y) * pfm.width + x]) !=
+          float_bits(pfm.pixel(x, y)[c]))
         ++differ;
   CHECK(differ == 0);
 }

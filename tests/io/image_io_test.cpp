@@ -16,6 +16,7 @@
 #include <twinray/io/exr.hpp>
 #endif
 
+#include "support/float_bits.hpp"
 #include "support/refusal.hpp"
 
 using namespace twinray;
@@ -99,13 +100,7 @@ TEST_CASE("a failed write leaves no partial file and keeps the earlier one") {
 
 // ---- OpenEXR (io/exr.hpp), in a build with OpenEXR (twinray::exr) ----
 #ifdef TWINRAY_WITH_OPENEXR
-namespace {
-uint32_t bits_of(float v) {
-  uint32_t b;
-  std::memcpy(&b, &v, 4);
-  return b;
-}
-}  // namespace
+using test_support::float_bits;
 
 TEST_CASE_TEMPLATE("EXR round trip through OpenEXR keeps every float bit as FLOAT R, G, B", T,
                    float, double) {
@@ -138,8 +133,8 @@ TEST_CASE_TEMPLATE("EXR round trip through OpenEXR keeps every float bit as FLOA
       for (int x = 0; x < 5; ++x) {
         CAPTURE(x);
         CAPTURE(y);
-        CHECK(bits_of(ch->values[static_cast<size_t>(y) * 5 + x]) ==
-              bits_of(static_cast<float>(img.pixel(x, y)[c])));
+        CHECK(float_bits(ch->values[static_cast<size_t>(y) * 5 + x]) ==
+              float_bits(static_cast<float>(img.pixel(x, y)[c])));
       }
   }
 }
