@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include <twinray/core/error.hpp>
+#include <twinray/core/process.hpp>
 
 namespace twinray {
 namespace io {
@@ -49,14 +50,7 @@ inline bool is_abandoned_temporary(const std::string& name) {
   char here[256] = {};
   if (::gethostname(here, sizeof here - 1) != 0 || host != here) return false;
   const long pid = std::strtol(pid_text.c_str(), nullptr, 10);
-  if (pid <= 0) return false;
-  if (::kill(static_cast<pid_t>(pid), 0) != 0) return errno == ESRCH;
-  // Still in the process table: a zombie (ended, not yet reaped) has state Z in
-  // /proc/PID/stat, after the command name in parentheses.
-  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
-  std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
-  const size_t close = text.rfind(')');
-  return close != std::string::npos && close + 2 < text.size() && text[close + 2] == 'Z';
+  return pid > 0 && !process_alive(pid);  // a zombie has ended too
 }
 
 // Throws Error(RuntimeFailure) "PATH: what: reason" (e.g. "No space left on device").

@@ -37,6 +37,7 @@
 #include <unistd.h>
 
 #include <twinray/backend/opencl/device.hpp>
+#include <twinray/core/process.hpp>
 #include <twinray/device/features.h>
 #include <twinray/generated/opencl_source.hpp>
 
@@ -191,15 +192,10 @@ inline bool background_build_enabled() {
 // id may have been reused), is stale: it is ignored and replaced.
 constexpr std::chrono::minutes kBuildLockMaxAge{10};
 
-// Whether process `pid` runs: it exists and is not a zombie (a helper killed after its
-// parent ended may wait as a zombie for a parent that never collects it).
-inline bool process_alive(long pid) {
-  if (pid <= 0 || (::kill(static_cast<pid_t>(pid), 0) != 0 && errno != EPERM)) return false;
-  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
-  std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
-  const size_t paren = text.rfind(')');  // "PID (NAME) STATE ..."
-  return paren == std::string::npos || paren + 2 >= text.size() || text[paren + 2] != 'Z';
-}
+// Whether a lock's process runs (core/process.hpp): a zombie counts as ended, since a
+// helper killed after its parent ended may wait as one for a parent that never
+// collects it.
+using twinray::process_alive;
 
 // The process id a lock file holds; 0 where it holds none or cannot be read.
 inline long build_lock_pid(const std::string& lock) {
