@@ -82,34 +82,40 @@ void for_each_ray_chunk(size_t n, F&& chunk) {
   }
 }
 
-// The closest hit of each of the n rays against `scene` (RenderBackend::intersect), on
-// this thread and parallel_for's: what CpuBackend runs, callable without a backend.
-template <class T>
-void query_intersect(const PackedScene<T>& scene, const Ray<T>* rays, size_t n, Hit<T>* hits,
-                     unsigned extras, HitExtra<T>* extra_out) {
+// Calls per_ray(kernel, ref, i) for each of the n rays of a query against `scene`, on
+// this thread and parallel_for's: `kernel` is a null pointer of the CPU kernel type the
+// scene's features pick (kQuerySpecializedFeatures), `ref` the device code's view of
+// the scene.
+template <class T, class PerRay>
+void for_each_query_ray(const PackedScene<T>& scene, size_t n, PerRay&& per_ray) {
   const auto params = query_params(scene.summary());
   const auto ref = scene_ref<T>(scene, &params, nullptr);
   with_features_of<kQuerySpecializedFeatures>(scene.features, [&](auto features) {
     using K = typename device::Code<T>::template CpuKernel<decltype(features)::value>;
     for_each_ray_chunk(n, [&](size_t begin, size_t end) {
-      for (size_t i = begin; i < end; ++i)
-        K::tr_query_intersect(&ref, &rays[i], &hits[i], extra_out ? &extra_out[i] : nullptr,
-                              static_cast<int>(extras));
+      for (size_t i = begin; i < end; ++i) per_ray(static_cast<K*>(nullptr), ref, i);
     });
+  });
+}
+
+// The closest hit of each of the n rays against `scene` (RenderBackend::intersect): what
+// CpuBackend runs, callable without a backend.
+template <class T>
+void query_intersect(const PackedScene<T>& scene, const Ray<T>* rays, size_t n, Hit<T>* hits,
+                     unsigned extras, HitExtra<T>* extra_out) {
+  for_each_query_ray(scene, n, [&](auto kernel, const auto& ref, size_t i) {
+    using K = std::remove_pointer_t<decltype(kernel)>;
+    K::tr_query_intersect(&ref, &rays[i], &hits[i], extra_out ? &extra_out[i] : nullptr,
+                          static_cast<int>(extras));
   });
 }
 
 // Whether anything blocks each of the n rays (RenderBackend::occluded): 1 or 0.
 template <class T>
 void query_occluded(const PackedScene<T>& scene, const Ray<T>* rays, size_t n, uint8_t* blocked) {
-  const auto params = query_params(scene.summary());
-  const auto ref = scene_ref<T>(scene, &params, nullptr);
-  with_features_of<kQuerySpecializedFeatures>(scene.features, [&](auto features) {
-    using K = typename device::Code<T>::template CpuKernel<decltype(features)::value>;
-    for_each_ray_chunk(n, [&](size_t begin, size_t end) {
-      for (size_t i = begin; i < end; ++i)
-        blocked[i] = static_cast<uint8_t>(K::tr_query_occluded(&ref, &rays[i]) ? 1 : 0);
-    });
+  for_each_query_ray(scene, n, [&](auto kernel, const auto& ref, size_t i) {
+    using K = std::remove_pointer_t<decltype(kernel)>;
+    blocked[i] = static_cast<uint8_t>(K::tr_query_occluded(&ref, &rays[i]) ? 1 : 0);
   });
 }
 
