@@ -31,6 +31,7 @@
 #include <twinray/io/obj_mesh.hpp>
 #include <twinray/io/texture_image.hpp>
 #include <twinray/scene/material.hpp>
+#include <twinray/scene/scene.hpp>
 #include <twinray/scene/texture.hpp>
 
 namespace twinray {
@@ -281,6 +282,47 @@ ObjModel<T> load_obj_model(const std::string& path, const ObjModelOptions& optio
     model.material_names.push_back(m.name);
   }
   return model;
+}
+
+// Moves a loaded model's textures and materials into `scene` and returns its mesh, with
+// each triangle pointing at the scene's copy of its material. Faces without a usable
+// `usemtl`, and a file without materials, take one default material (Material<T>{})
+// added after the file's. `name` labels the materials in `material_names` when given
+// (`spot.obj:cow`, `spot.obj: default material`). Warnings are the caller's to report.
+// The scene loader and the Python module's add_obj() both go through here, so a model
+// gets the same material indices either way.
+template <class T>
+Mesh<T> adopt_obj_model(ObjModel<T>&& model, Scene<T>& scene, const std::string& name,
+                        std::vector<std::string>* material_names = nullptr) {
+  Mesh<T> mesh = std::move(model.mesh);
+  const int texture_base = static_cast<int>(scene.textures.size());
+  for (Texture<T>& t : model.textures) scene.add_texture(std::move(t));
+  std::vector<int> index(model.materials.size());
+  for (size_t i = 0; i < model.materials.size(); ++i) {
+    Material<T> m = model.materials[i];
+    if (m.texture >= 0) m.texture += texture_base;
+    index[i] = scene.add_material(m);
+    if (material_names) material_names->push_back(name + ":" + model.material_names[i]);
+  }
+  bool uses_default = mesh.triangle_materials.empty();
+  for (int m : mesh.triangle_materials) uses_default = uses_default || m < 0;
+  int fallback = -1;
+  if (uses_default) {
+    fallback = scene.add_material(Material<T>{});
+    if (material_names) material_names->push_back(name + ": default material");
+  }
+  for (int& m : mesh.triangle_materials) m = m < 0 ? fallback : index[static_cast<size_t>(m)];
+  mesh.material = mesh.triangle_materials.empty() ? fallback : mesh.triangle_materials[0];
+  if (model.materials.empty()) mesh.triangle_materials.clear();
+  return mesh;
+}
+
+// How many materials adopt_obj_model() adds to a scene for this model.
+template <class T>
+size_t adopted_material_count(const ObjModel<T>& model) {
+  bool uses_default = model.mesh.triangle_materials.empty();
+  for (int m : model.mesh.triangle_materials) uses_default = uses_default || m < 0;
+  return model.materials.size() + (uses_default ? 1 : 0);
 }
 
 }  // namespace io

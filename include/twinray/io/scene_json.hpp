@@ -514,9 +514,9 @@ class SceneReader : public JsonReader<T> {
     } catch (const Error& e) {
       fail(opath, e.what());
     }
-    mesh = std::move(model.mesh);
-    count_triangles(static_cast<long long>(mesh.triangles.size()), opath);
+    count_triangles(static_cast<long long>(model.mesh.triangles.size()), opath);
     if (overridden) {
+      mesh = std::move(model.mesh);
       mesh.triangle_materials.clear();
       mesh.material = material_ref(o, path, out);
       return;
@@ -525,25 +525,7 @@ class SceneReader : public JsonReader<T> {
     if (static_cast<long long>(out.scene.materials.size() + model.materials.size()) + 1 >
         limits_.max_materials)
       fail(opath, "more than " + std::to_string(limits_.max_materials) + " materials");
-    const int texture_base = static_cast<int>(out.scene.textures.size());
-    for (Texture<T>& t : model.textures) out.scene.add_texture(std::move(t));
-    std::vector<int> index(model.materials.size());
-    for (size_t i = 0; i < model.materials.size(); ++i) {
-      Material<T> m = model.materials[i];
-      if (m.texture >= 0) m.texture += texture_base;
-      index[i] = out.scene.add_material(m);
-      out.material_names.push_back(name + ":" + model.material_names[i]);
-    }
-    bool uses_default = mesh.triangle_materials.empty();
-    for (int m : mesh.triangle_materials) uses_default = uses_default || m < 0;
-    int fallback = -1;
-    if (uses_default) {
-      fallback = out.scene.add_material(Material<T>{});
-      out.material_names.push_back(name + ": default material");
-    }
-    for (int& m : mesh.triangle_materials) m = m < 0 ? fallback : index[static_cast<size_t>(m)];
-    mesh.material = mesh.triangle_materials.empty() ? fallback : mesh.triangle_materials[0];
-    if (model.materials.empty()) mesh.triangle_materials.clear();
+    mesh = adopt_obj_model(std::move(model), out.scene, name, &out.material_names);
   }
 
   void read_inline_mesh(const Json& o, const std::string& path, Mesh<T>& mesh) {

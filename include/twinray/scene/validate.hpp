@@ -198,19 +198,20 @@ void validate(const Camera<T>& camera) {
 
 namespace detail {
 
-// Object i of the scene: finite geometry, radius > 0, non-zero plane normal, indices in
-// range (validate_geometry).
+// An object that will be objects[i] of a scene with `materials` materials: finite
+// geometry, radius > 0, non-zero plane normal, indices in range. Messages name
+// objects[i]. Programs that build a scene piece by piece (the Python module) check each
+// object as it is added.
 template <class T>
-void validate_object(const Scene<T>& scene, size_t i) {
+void validate_object(const Object<T>& object, size_t i, size_t materials) {
   // Paths are made only for a value that is refused (detail::path_text).
   auto base = [i] { return at("objects", i); };
   auto field = [&base](const char* name) { return [&base, name] { return base() + name; }; };
   auto check_material = [&](int material) {
-    if (material < 0 || static_cast<size_t>(material) >= scene.materials.size())
+    if (material < 0 || static_cast<size_t>(material) >= materials)
       refuse(base() + ".material", "no material with index " + std::to_string(material) + " (" +
-                                       std::to_string(scene.materials.size()) + " defined)");
+                                       std::to_string(materials) + " defined)");
   };
-  const Object<T>& object = scene.objects[i];
   if (auto* s = std::get_if<Sphere<T>>(&object)) {
     detail::require_finite(field(".center"), s->center);
     detail::require_range(field(".radius"), s->radius, T(0), T(INFINITY), true);
@@ -239,11 +240,37 @@ void validate_object(const Scene<T>& scene, size_t i) {
                      std::to_string(m->vertices.size()) + " vertices)");
       }
     check_material(m->material);
-    detail::validate_mesh_attributes(base(), *m, scene.materials.size());
+    detail::validate_mesh_attributes(base(), *m, materials);
   }
 }
 
+// Object i of the scene (validate_geometry).
+template <class T>
+void validate_object(const Scene<T>& scene, size_t i) {
+  validate_object(scene.objects[i], i, scene.materials.size());
+}
+
+// materials[i], in a scene of `textures` textures: color channels in [0, 1]; ka, kd, ks
+// and shininess >= 0; glaze in [0, 1]; a texture index in range.
+template <class T>
+void validate_material(const Material<T>& m, size_t i, size_t textures) {
+  std::string base = at("materials", i);
+  for (int c = 0; c < 3; ++c)
+    require_range(base + ".color[" + std::to_string(c) + "]", m.color[c], T(0), T(1));
+  require_range(base + ".ka", m.ka, T(0), T(INFINITY));
+  require_range(base + ".kd", m.kd, T(0), T(INFINITY));
+  require_range(base + ".ks", m.ks, T(0), T(INFINITY));
+  require_range(base + ".shininess", m.shininess, T(0), T(INFINITY));
+  require_range(base + ".glaze", m.glaze, T(0), T(1));
+  if (m.texture < -1 || m.texture >= static_cast<int>(textures))
+    refuse(base + ".texture", "no texture with index " + std::to_string(m.texture) + " (" +
+                                  std::to_string(textures) + " defined)");
+}
+
 }  // namespace detail
+
+using detail::validate_material;
+using detail::validate_object;
 
 // Objects are checked in chunks of this many, on every thread (validate_geometry).
 inline constexpr size_t kValidateChunk = 4096;
@@ -261,20 +288,8 @@ void validate_geometry(const Scene<T>& scene, const AfterChunk& after_chunk) {
   for (int c = 0; c < 3; ++c)
     detail::require_range("image.background[" + std::to_string(c) + "]", scene.background[c], T(0),
                           T(1));
-  for (size_t i = 0; i < scene.materials.size(); ++i) {
-    const Material<T>& m = scene.materials[i];
-    std::string base = at("materials", i);
-    for (int c = 0; c < 3; ++c)
-      detail::require_range(base + ".color[" + std::to_string(c) + "]", m.color[c], T(0), T(1));
-    detail::require_range(base + ".ka", m.ka, T(0), T(INFINITY));
-    detail::require_range(base + ".kd", m.kd, T(0), T(INFINITY));
-    detail::require_range(base + ".ks", m.ks, T(0), T(INFINITY));
-    detail::require_range(base + ".shininess", m.shininess, T(0), T(INFINITY));
-    detail::require_range(base + ".glaze", m.glaze, T(0), T(1));
-    if (m.texture < -1 || m.texture >= static_cast<int>(scene.textures.size()))
-      refuse(base + ".texture", "no texture with index " + std::to_string(m.texture) + " (" +
-                                    std::to_string(scene.textures.size()) + " defined)");
-  }
+  for (size_t i = 0; i < scene.materials.size(); ++i)
+    detail::validate_material(scene.materials[i], i, scene.textures.size());
   long long texels = 0;
   for (size_t i = 0; i < scene.textures.size(); ++i)
     texels += detail::validate_texture(at("textures", i), scene.textures[i]);
