@@ -104,8 +104,15 @@ class NativeScene {
     return static_cast<int>(materials_++);
   }
 
+  // An object whose material is -1 takes the scene's default material (Material{}),
+  // added with the first such object that is valid.
   int add_object(Object<double> object, std::optional<Transform> transform) {
-    twinray::validate_object(object, objects_, materials_);
+    const bool new_default =
+        std::visit([](const auto& o) { return o.material; }, object) == -1 && default_material_ < 0;
+    if (std::visit([](const auto& o) { return o.material; }, object) == -1)
+      std::visit([&](auto& o) { o.material = new_default ? int(materials_) : default_material_; },
+                 object);
+    twinray::validate_object(object, objects_, materials_ + (new_default ? 1 : 0));
     if (transform) {  // a transform a sphere cannot take, or a result out of range
       Object<double> placed = object;
       try {
@@ -114,6 +121,10 @@ class NativeScene {
         throw twinray::invalid_input(twinray::detail::at("objects", objects_) +
                                      ".transform: " + e.what());
       }
+    }
+    if (new_default) {
+      steps_.emplace_back(Material<double>{});
+      default_material_ = static_cast<int>(materials_++);
     }
     steps_.emplace_back(ObjectStep{std::move(object), transform});
     bump();
@@ -205,6 +216,7 @@ class NativeScene {
   twinray::io::SceneFile<double> file_;
   std::vector<Step> steps_;
   size_t materials_ = 0, objects_ = 0;
+  int default_material_ = -1;
   glm::dvec3 background_{0.0, 0.0, 0.0};
   long long version_ = 0;
 };

@@ -171,7 +171,6 @@ class Scene:
         self._scene = _core.Scene()
         self.camera: Camera = Camera()
         self.lights: List[Light] = []
-        self._default_material: Optional[int] = None
 
     @classmethod
     def load(cls, path: PathLike) -> "Scene":
@@ -194,12 +193,11 @@ class Scene:
         return self._scene.add_material(_vec3("color", color), float(ka), float(kd), float(ks),
                                         float(shininess), float(glaze))
 
-    def _material(self, material: Optional[int]) -> int:
-        if material is not None:
-            return _index("material", material)
-        if self._default_material is None:
-            self._default_material = self.add_material()
-        return self._default_material
+    @staticmethod
+    def _material(material: Optional[int]) -> int:
+        """The material index, or -1: the scene's default material (Material's defaults,
+        added with the first object that asks for it)."""
+        return -1 if material is None else _index("material", material)
 
     def add_mesh(self, vertices: Any, triangles: Any, material: Optional[int] = None,
                  transform: Any = None, mask: int = _ALL_BITS) -> int:
