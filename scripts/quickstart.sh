@@ -37,7 +37,10 @@ if [ ! -f "$build/CMakeCache.txt" ]; then
   command -v "$cxx" >/dev/null || cxx=c++
   compiler=(-DCMAKE_CXX_COMPILER="$cxx")
 fi
-cmake -S . -B "$build" "${compiler[@]}" -DCMAKE_BUILD_TYPE=Release -DTWINRAY_BUILD_BENCHMARKS=ON >/dev/null
+python_tests=()
+[ "$mode" = test ] && python_tests=(-DTWINRAY_PYTHON_VENV="$(mkdir -p "$build" && cd "$build" && pwd)/python-venv")
+cmake -S . -B "$build" "${compiler[@]}" -DCMAKE_BUILD_TYPE=Release -DTWINRAY_BUILD_BENCHMARKS=ON \
+  "${python_tests[@]}" >/dev/null
 if [ "$mode" = demo ]; then
   cmake --build "$build" -j "$jobs" --target demo
   mkdir -p out/demo
@@ -45,6 +48,13 @@ if [ "$mode" = demo ]; then
   echo "quickstart: the demo images are in out/demo/ (demo.png and the seed's comparisons)"
 else
   cmake --build "$build" -j "$jobs"
+  # 3. The Python package, built by pip from this checkout into a virtual environment
+  # under the build folder (PyPI packages go only there); tests/python runs it.
+  venv="$build/python-venv"
+  [ -x "$venv/bin/python" ] || /usr/bin/python3 -m venv "$venv"
+  "$venv/bin/pip" install -q -r python/requirements-build.txt
+  CXX="$(grep -m1 '^CMAKE_CXX_COMPILER:' "$build/CMakeCache.txt" | cut -d= -f2)" \
+    "$venv/bin/pip" install -q --no-build-isolation --config-settings=build-dir="$build/python" .
   cd "$build"
   ctest --output-on-failure -j "$jobs"
 fi
