@@ -116,10 +116,11 @@ NB_MODULE(_core, m) {
       .def("load", &NativeScene::load)
       .def("add_material",
            [](NativeScene& s, const Vec3& color, double ka, double kd, double ks, double shininess,
-              double glaze) {
+              double glaze, double transmission, double ior, const Vec3& absorption) {
              twinray::Material<double> mat;
              mat.color = dvec(color);
              mat.ka = ka, mat.kd = kd, mat.ks = ks, mat.shininess = shininess, mat.glaze = glaze;
+             mat.transmission = transmission, mat.ior = ior, mat.absorption = dvec(absorption);
              return s.add_material(mat);
            })
       .def("add_sphere",

@@ -38,6 +38,9 @@ Material<T> rounded(const Material<double>& m) {
   out.ks = static_cast<T>(m.ks);
   out.shininess = static_cast<T>(m.shininess);
   out.glaze = static_cast<T>(m.glaze);
+  out.transmission = static_cast<T>(m.transmission);
+  out.ior = static_cast<T>(m.ior);
+  out.absorption = rounded<T>(m.absorption);
   out.texture = m.texture;
   return out;
 }

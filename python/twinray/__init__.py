@@ -187,11 +187,16 @@ class Scene:
         return scene
 
     def add_material(self, color: Vector = (0.8, 0.8, 0.8), ka: float = 0.1, kd: float = 0.7,
-                     ks: float = 0.5, shininess: float = 65.0, glaze: float = 0.0) -> int:
+                     ks: float = 0.5, shininess: float = 65.0, glaze: float = 0.0,
+                     transmission: float = 0.0, ior: float = 1.5,
+                     absorption: Vector = (0.0, 0.0, 0.0)) -> int:
         """A Blinn-Phong material (linear RGB color in [0, 1]; glaze: mirror reflectivity
-        in [0, 1]). Returns its index."""
+        in [0, 1]), or glass: transmission in [0, 1 - glaze] crosses the surface (Fresnel
+        reflection, Snell refraction at index `ior`), absorption per unit length inside.
+        Returns its index."""
         return self._scene.add_material(_vec3("color", color), float(ka), float(kd), float(ks),
-                                        float(shininess), float(glaze))
+                                        float(shininess), float(glaze), float(transmission),
+                                        float(ior), _vec3("absorption", absorption))
 
     @staticmethod
     def _material(material: Optional[int]) -> int:

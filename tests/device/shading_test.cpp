@@ -18,8 +18,9 @@ namespace {
 template <class T>
 struct ShadeFixture {
   typename Code<T>::Params params{};
-  typename Code<T>::Material material{T(0.5),  T(0.25), T(1), T(0.1), T(0.5),
-                                      T(0.25), T(10),   T(0), -1,     0};
+  // color (0.5, 0.25, 1), ka 0.1, kd 0.5, ks 0.25, shininess 10, opaque, no texture.
+  typename Code<T>::Material material{T(0.5), T(0.25), T(1), T(0.1), T(0.5), T(0.25), T(10), T(0),
+                                      T(0),   T(1.5),  T(0), T(0),   T(0),   -1,      0};
   typename Code<T>::Light light{};
   typename Code<T>::Sphere blocker{};
   typename Code<T>::SceneRef ref{};

@@ -227,6 +227,7 @@ TEST_CASE("MTL: malformed values are refused by file and line") {
   CHECK(m[0].kd[0] == 1.0);
   CHECK(m[1].kd[0] == 0.8);  // no Kd, no texture: grey
   CHECK(m[1].line == 6);
+  CHECK((m[0].has_d && m[0].d == 0.5 && !m[1].has_d));
 }
 
 TEST_CASE("MTL: a material defined twice keeps its first definition, with a warning") {

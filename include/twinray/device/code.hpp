@@ -119,7 +119,7 @@ namespace f64_cpu = f64;
 static_assert(sizeof(f32::TrSphere) == 32 && sizeof(f64::TrSphere) == 48, "TrSphere layout");
 static_assert(sizeof(f32::TrTriangle) == 44 && sizeof(f64::TrTriangle) == 80, "TrTriangle layout");
 static_assert(sizeof(f32::TrPlane) == 32 && sizeof(f64::TrPlane) == 56, "TrPlane layout");
-static_assert(sizeof(f32::TrMaterial) == 40 && sizeof(f64::TrMaterial) == 72, "TrMaterial layout");
+static_assert(sizeof(f32::TrMaterial) == 60 && sizeof(f64::TrMaterial) == 112, "TrMaterial layout");
 static_assert(sizeof(f32::TrTriangleAttr) == 68 && sizeof(f64::TrTriangleAttr) == 128,
               "TrTriangleAttr layout");
 static_assert(sizeof(f32::TrTexture) == 16 && sizeof(f64::TrTexture) == 16, "TrTexture layout");
@@ -167,6 +167,8 @@ struct Code<float> {
   using SceneRef = f32::TrSceneRef;
   using Ray = f32::TrRay;
   using Hit = f32::TrHit;
+  using Path = f32::TrPath;
+  using RayStack = f32::TrRayStack;
   using Sample2 = f32::TrSample2;
   using BlockScratch = f32::TrBlockScratch;
   using Nearest = f32::TrNearest;
@@ -195,6 +197,8 @@ struct Code<double> {
   using SceneRef = f64::TrSceneRef;
   using Ray = f64::TrRay;
   using Hit = f64::TrHit;
+  using Path = f64::TrPath;
+  using RayStack = f64::TrRayStack;
   using Sample2 = f64::TrSample2;
   using BlockScratch = f64::TrBlockScratch;
   using Nearest = f64::TrNearest;

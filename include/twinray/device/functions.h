@@ -15,6 +15,7 @@
 #include "scene_hit.h"
 #include "ray_query.h"
 #include "texture.h"
+#include "dielectric.h"
 #include "shading.h"
 #include "trace.h"
 #include "adaptive.h"

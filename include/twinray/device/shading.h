@@ -77,19 +77,43 @@ TR_FN int tr_light_needs_shadow_ray(const TrSceneRef* s, TrLightView lv, vec3 p,
   return tr_use(s, TR_F_SHADOWS) & (lv.lit == TR_LIGHT_ALL) & traced;
 }
 
+/* The share of a light that reaches a point past glass, on a shadow ray that an
+ * any-hit test found blocked: the product of the transmission of each transmissive
+ * surface the ray crosses before tmax, 0 at the first opaque one (or past
+ * TR_SHADOW_CROSSINGS surfaces). A glass object's shadow is tinted by its transmission
+ * only: light is not bent or absorbed on its way (a Whitted model has no caustics). */
+#define TR_SHADOW_CROSSINGS 16
+TR_FN real tr_shadow_transmittance(const TrSceneRef* s, TrRay shadow, real tmax) {
+  real through = TR_R(1.0);
+  for (int k = 0; k < TR_SHADOW_CROSSINGS; ++k) {
+    TrHit hit = tr_no_hit();
+    if (!tr_closest_hit(s, &shadow, tmax, &hit)) return through;
+    real transmission = s->materials[hit.material].transmission;
+    if (!(transmission > TR_R(0.0))) return TR_R(0.0);
+    through = through * transmission;
+    shadow.o = tr_offset_ray_origin(hit.p, hit.perr, hit.n, shadow.d);
+    tmax = tmax - hit.t;
+    if (!(tmax > TR_R(0.0))) return through;
+  }
+  return TR_R(0.0);
+}
+
 /* sum plus the light's terms at the hit up to the specular power (surface sf, incoming
  * direction ray_dir, the light seen as lv; blocked: whether its shadow ray is, only read
- * where one was asked for). Where a specular term follows, *specular is 1 and *n_dot_h
- * its base, max(0, n.h) clamped to [0, 1]; tr_add_specular adds it. */
+ * where one was asked for; through: the share of the light that passes glass on it,
+ * tr_shadow_transmittance, read only with TR_F_DIELECTRIC). Where a specular term
+ * follows, *specular is 1 and *n_dot_h its base, max(0, n.h) clamped to [0, 1];
+ * tr_add_specular adds it. */
 TR_FN vec3 tr_add_light_before_power(const TrSceneRef* s, const TrHit* hit, TrSurface sf,
-                                     vec3 ray_dir, TrLightView lv, int blocked, vec3 sum,
-                                     real* n_dot_h, int* specular) {
+                                     vec3 ray_dir, TrLightView lv, int blocked, real through,
+                                     vec3 sum, real* n_dot_h, int* specular) {
   *specular = 0;
   if (lv.lit == TR_LIGHT_NONE) return sum;
   TR_GLOBAL const TrMaterial* m = &s->materials[hit->material];
   if (tr_use(s, TR_F_AMBIENT)) sum = sum + sf.albedo * lv.irradiance * m->ka;
   if (lv.lit == TR_LIGHT_AMBIENT) return sum;
   if (tr_use(s, TR_F_SHADOWS) && blocked) return sum;
+  if (tr_use(s, TR_F_DIELECTRIC)) lv.irradiance = lv.irradiance * through;
   if (tr_use(s, TR_F_DIFFUSE)) sum = sum + sf.albedo * lv.irradiance * (m->kd * lv.n_dot_l);
   if (tr_use(s, TR_F_SPECULAR)) {
     vec3 view = -ray_dir;
@@ -100,21 +124,24 @@ TR_FN vec3 tr_add_light_before_power(const TrSceneRef* s, const TrHit* hit, TrSu
   return sum;
 }
 
-/* sum plus the specular term, given its power max(0, n.h)^shininess. */
-TR_FN vec3 tr_add_specular(const TrSceneRef* s, const TrHit* hit, TrLightView lv, real power,
-                           vec3 sum) {
+/* sum plus the specular term, given its power max(0, n.h)^shininess (through: as for
+ * tr_add_light_before_power). */
+TR_FN vec3 tr_add_specular(const TrSceneRef* s, const TrHit* hit, TrLightView lv, real through,
+                           real power, vec3 sum) {
+  if (tr_use(s, TR_F_DIELECTRIC)) lv.irradiance = lv.irradiance * through;
   return sum + lv.irradiance * (s->materials[hit->material].ks * power);
 }
 
 /* sum plus everything the light seen as lv adds at the hit. */
 TR_FN vec3 tr_add_light(const TrSceneRef* s, const TrHit* hit, TrSurface sf, vec3 ray_dir,
-                        TrLightView lv, int blocked, vec3 sum) {
+                        TrLightView lv, int blocked, real through, vec3 sum) {
   real n_dot_h = TR_R(0.0);
   int specular = 0;
-  sum = tr_add_light_before_power(s, hit, sf, ray_dir, lv, blocked, sum, &n_dot_h, &specular);
+  sum = tr_add_light_before_power(s, hit, sf, ray_dir, lv, blocked, through, sum, &n_dot_h,
+                                  &specular);
   if (!specular) return sum;
   real power = tr_pow_unit(n_dot_h, s->materials[hit->material].shininess);
-  return tr_add_specular(s, hit, lv, power, sum);
+  return tr_add_specular(s, hit, lv, through, power, sum);
 }
 
 /* power[r] = tr_pow_unit(n_dot_h[r], shininess of hit r's material) for the hits r < n
@@ -163,7 +190,12 @@ TR_FN vec3 tr_shade(const TrSceneRef* s, const TrHit* hit, vec3 ray_dir) {
     int blocked =
         tr_light_needs_shadow_ray(s, lv, hit->shadow_p, hit->shadow_perr, hit->n, &shadow, &tmax) &&
         tr_any_hit(s, &shadow, tmax);
-    sum = tr_add_light(s, hit, sf, ray_dir, lv, blocked, sum);
+    real through = TR_R(1.0);
+    if (tr_use(s, TR_F_DIELECTRIC) && blocked) {
+      through = tr_shadow_transmittance(s, shadow, tmax);
+      blocked = !(through > TR_R(0.0));
+    }
+    sum = tr_add_light(s, hit, sf, ray_dir, lv, blocked, through, sum);
   }
   return sum;
 }

@@ -2,35 +2,109 @@
  * Glazed surfaces add glaze x (what the mirrored ray sees), the assignment's
  * reflected = d - 2 (d.n) n. OpenCL C has no recursion, so the mirror chain is a
  * loop carrying the product of the glaze factors; max_depth counts ray segments
- * (1 = camera rays only). Values stay linear HDR; clamping happens at output. */
+ * (1 = camera rays only). Values stay linear HDR; clamping happens at output.
+ *
+ * Glass (TR_F_DIELECTRIC, dielectric.h) splits a path in two: the refracted ray, with
+ * weight transmission (1 - F), goes on at once, and the reflected one, with weight
+ * glaze + transmission F (F the Fresnel reflectance; 1 under total internal reflection),
+ * waits on the path's stack of pending rays (TrRayStack), each keeping the segments left
+ * to it. The tree is walked depth first, so both backends add its rays' colors in one
+ * order. A ray whose weight falls below TR_MIN_WEIGHT in every channel is not traced. */
+#define TR_MIN_WEIGHT TR_R(0.0009765625) /* 2^-10 */
 
 /* A camera ray's path before its first segment. */
 TR_FN TrPath tr_path_start(const TrSceneRef* s, TrRay ray) {
   TrPath path;
   path.ray = ray;
   path.color = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
-  path.weight = TR_R(1.0);
-  path.segments_left = tr_use(s, TR_F_GLAZE) ? s->params->max_depth : 1;
+  path.weight = TR_VEC3(TR_R(1.0), TR_R(1.0), TR_R(1.0));
+  path.segments_left =
+      tr_use(s, TR_F_GLAZE) || tr_use(s, TR_F_DIELECTRIC) ? s->params->max_depth : 1;
   return path;
+}
+
+/* Ends the path's current ray: the path takes its last pending ray, if it has one. */
+TR_FN_INLINE void tr_path_next(TrPath* path, TrRayStack* stack) {
+  path->segments_left = 0;
+  if (!TR_HAS(TR_F_DIELECTRIC) || stack->n == 0) return;
+  --stack->n;
+  path->ray = stack->ray[stack->n].ray;
+  path->weight = stack->ray[stack->n].weight;
+  path->segments_left = stack->ray[stack->n].segments_left;
+}
+
+/* The path's ray continued from the hit along unit direction w. */
+TR_FN_INLINE TrRay tr_ray_from_hit(const TrHit* hit, vec3 w) {
+  TrRay ray;
+  ray.o = tr_offset_ray_origin(hit->p, hit->perr, hit->n, w);
+  ray.d = w;
+  return ray;
+}
+
+/* At a surface of a transmissive material: the refracted ray goes on, the reflected one
+ * waits on the stack (both where their weights are large enough and segments are
+ * left). The normal is the shading normal, turned to face the incoming ray, unless it
+ * then faces away from the geometric one's facing side (the geometric one serves). */
+TR_FN void tr_path_split(const TrSceneRef* s, TrPath* path, TrRayStack* stack, const TrHit* hit) {
+  TR_GLOBAL const TrMaterial* m = &s->materials[hit->material];
+  vec3 d = path->ray.d;
+  if (path->segments_left <= 0) {
+    tr_path_next(path, stack);
+    return;
+  }
+  real eta = tr_dot(d, hit->n) < TR_R(0.0) ? m->ior : TR_R(1.0) / m->ior;
+  vec3 n = tr_dot(d, hit->ns) < TR_R(0.0) ? hit->ns : -hit->ns;
+  if (!(tr_dot(n, hit->n) * tr_dot(d, hit->n) < TR_R(0.0)) || tr_dot(d, n) >= TR_R(0.0))
+    n = tr_dot(d, hit->n) < TR_R(0.0) ? hit->n : -hit->n;
+  real cos_i = -tr_dot(d, n);
+  real cos_t = TR_R(0.0);
+  real fresnel = tr_fresnel_dielectric(cos_i, eta, &cos_t);
+  real glaze = tr_use(s, TR_F_GLAZE) ? m->glaze : TR_R(0.0);
+  vec3 reflected_weight = path->weight * (glaze + m->transmission * fresnel);
+  vec3 refracted_weight = path->weight * (m->transmission * (TR_R(1.0) - fresnel));
+  int reflect = tr_max_component(reflected_weight) >= TR_MIN_WEIGHT;
+  int refract = fresnel < TR_R(1.0) && tr_max_component(refracted_weight) >= TR_MIN_WEIGHT;
+  vec3 mirrored = tr_normalize(d - n * (TR_R(2.0) * tr_dot(d, n)));
+  if (refract) {
+    if (reflect && stack->n < TR_RAY_STACK) {
+      stack->ray[stack->n].ray = tr_ray_from_hit(hit, mirrored);
+      stack->ray[stack->n].weight = reflected_weight;
+      stack->ray[stack->n].segments_left = path->segments_left;
+      ++stack->n;
+    }
+    path->ray = tr_ray_from_hit(hit, tr_refract(d, n, cos_i, eta, cos_t));
+    path->weight = refracted_weight;
+  } else if (reflect) {
+    path->ray = tr_ray_from_hit(hit, mirrored);
+    path->weight = reflected_weight;
+  } else {
+    tr_path_next(path, stack);
+  }
 }
 
 /* One segment of the path, whose ray's closest hit is (found, hit) and shades to
  * `shaded` there: adds what it sees and, on a glazed surface, turns the path into the
- * mirrored ray. */
-TR_FN void tr_path_step(const TrSceneRef* s, TrPath* path, int found, const TrHit* hit,
-                        vec3 shaded) {
+ * mirrored ray; on glass, splits it (tr_path_split); else the path takes its next
+ * pending ray, if any. */
+TR_FN void tr_path_step(const TrSceneRef* s, TrPath* path, TrRayStack* stack, int found,
+                        const TrHit* hit, vec3 shaded) {
   --path->segments_left;
   if (!found) {
     TR_GLOBAL const TrParams* p = s->params;
     path->color = path->color + TR_VEC3(p->bg_r, p->bg_g, p->bg_b) * path->weight;
-    path->segments_left = 0;
+    tr_path_next(path, stack);
     return;
   }
   vec3 d = path->ray.d;
+  if (tr_use(s, TR_F_DIELECTRIC)) path->weight = path->weight * tr_absorption(s, hit, d);
   path->color = path->color + shaded * path->weight;
+  if (tr_use(s, TR_F_DIELECTRIC) && s->materials[hit->material].transmission > TR_R(0.0)) {
+    tr_path_split(s, path, stack, hit);
+    return;
+  }
   real glaze = TR_HAS(TR_F_GLAZE) ? s->materials[hit->material].glaze : TR_R(0.0);
-  if (!(glaze > TR_R(0.0))) {
-    path->segments_left = 0;
+  if (!(glaze > TR_R(0.0)) || !tr_use(s, TR_F_GLAZE)) {
+    tr_path_next(path, stack);
     return;
   }
   vec3 n = hit->ns; /* the shading normal mirrors; the geometric one offsets */
@@ -41,12 +115,14 @@ TR_FN void tr_path_step(const TrSceneRef* s, TrPath* path, int found, const TrHi
 }
 
 TR_FN vec3 tr_trace(const TrSceneRef* s, TrRay ray) {
+  TrRayStack stack;
+  stack.n = 0;
   TrPath path = tr_path_start(s, ray);
   while (path.segments_left > 0) {
     TrHit hit = tr_no_hit();
     int found = tr_closest_hit(s, &path.ray, TR_R(INFINITY), &hit);
     vec3 shaded = found ? tr_shade(s, &hit, path.ray.d) : TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
-    tr_path_step(s, &path, found, &hit, shaded);
+    tr_path_step(s, &path, &stack, found, &hit, shaded);
   }
   return path.color;
 }
@@ -124,14 +200,16 @@ TR_FN_INLINE void tr_block_camera_paths(const TrSceneRef* s, TrBlockScratch* b, 
  * the segment's hits, adding each hit's terms in tr_shade's order, so each path takes
  * the same steps as in tr_trace; only the order across pixels differs. The CPU
  * backend's path for shaded frames. */
-TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, int x0, int y0, int w, int h,
-                           vec3* colors) {
+TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, TrRayStack* stacks, int x0,
+                           int y0, int w, int h, vec3* colors) {
   TR_GLOBAL const TrParams* p = s->params;
   TrRayPacket* pk = &b->packet;
   int n = w * h;
   for (int j = 0; j < n; ++j) colors[j] = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
   for (int i = 0; i < p->spp; ++i) {
     tr_block_camera_paths(s, b, x0, y0, w, h, i);
+    if (TR_HAS(TR_F_DIELECTRIC))
+      for (int j = 0; j < n; ++j) stacks[j].n = 0;
     for (;;) {
       int m = 0;
       for (int j = 0; j < n; ++j) {
@@ -193,11 +271,24 @@ TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, int x0, int y
           tr_any_hit_packet(s, pk, b->lane_blocked);
           for (int j = 0; j < k; ++j) b->blocked[b->lane[j]] = b->lane_blocked[j];
         }
-        /* tr_add_light, hit by hit, with the specular powers of all hits between its
-         * two halves. */
         TR_GLOBAL const TrLight* lp = &s->lights[light];
         TrLightView lv;
         lv.pos = TR_VEC3(lp->px, lp->py, lp->pz);
+        /* What passes glass on the blocked shadow rays, as tr_shade finds it. */
+        if (tr_use(s, TR_F_DIELECTRIC)) {
+          for (int q = 0; q < f; ++q) {
+            b->through[q] = TR_R(1.0);
+            if (!b->blocked[q]) continue;
+            TrRay shadow;
+            real tmax;
+            tr_shadow_ray(tr_lane3(&b->hit_shadow_p, q), tr_lane3(&b->hit_shadow_perr, q),
+                          tr_lane3(&b->hit_n, q), lv.pos, &shadow, &tmax);
+            b->through[q] = tr_shadow_transmittance(s, shadow, tmax);
+            b->blocked[q] = !(b->through[q] > TR_R(0.0));
+          }
+        }
+        /* tr_add_light, hit by hit, with the specular powers of all hits between its
+         * two halves. */
         for (int r = 0; r < m; ++r) {
           b->specular[r] = 0;
           b->n_dot_h[r] = TR_R(0.0);
@@ -208,20 +299,23 @@ TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, int x0, int y
           lv.l = tr_lane3(&b->light_l, q);
           lv.n_dot_l = b->light_n_dot_l[q];
           lv.lit = b->light_lit[q];
-          b->shaded[r] = tr_add_light_before_power(s, &b->hit[r], b->surface[r],
-                                                   b->path[b->slot[r]].ray.d, lv, b->blocked[q],
-                                                   b->shaded[r], &b->n_dot_h[r], &b->specular[r]);
+          real through = TR_HAS(TR_F_DIELECTRIC) ? b->through[q] : TR_R(1.0);
+          b->shaded[r] = tr_add_light_before_power(
+              s, &b->hit[r], b->surface[r], b->path[b->slot[r]].ray.d, lv, b->blocked[q], through,
+              b->shaded[r], &b->n_dot_h[r], &b->specular[r]);
         }
         tr_specular_powers(s, b->hit, b->specular, b->n_dot_h, m, b->power);
         for (int q = 0; q < f; ++q) {
           int r = b->found_ray[q];
           if (!b->specular[r]) continue;
           lv.irradiance = tr_lane3(&b->light_irradiance, q);
-          b->shaded[r] = tr_add_specular(s, &b->hit[r], lv, b->power[r], b->shaded[r]);
+          real through = TR_HAS(TR_F_DIELECTRIC) ? b->through[q] : TR_R(1.0);
+          b->shaded[r] = tr_add_specular(s, &b->hit[r], lv, through, b->power[r], b->shaded[r]);
         }
       }
       for (int r = 0; r < m; ++r)
-        tr_path_step(s, &b->path[b->slot[r]], b->found[r], &b->hit[r], b->shaded[r]);
+        tr_path_step(s, &b->path[b->slot[r]], &stacks[TR_HAS(TR_F_DIELECTRIC) ? b->slot[r] : 0],
+                     b->found[r], &b->hit[r], b->shaded[r]);
     }
     for (int j = 0; j < n; ++j) colors[j] = colors[j] + b->path[j].color;
   }
@@ -285,6 +379,9 @@ TR_FN void tr_render_block_at(const TrSceneRef* s, TrBlockScratch* b, int index,
   int w = p->rect_w - x < TR_BLOCK_SIDE ? p->rect_w - x : TR_BLOCK_SIDE;
   int h = p->rect_h - y < TR_BLOCK_SIDE ? p->rect_h - y : TR_BLOCK_SIDE;
   vec3 colors[TR_BLOCK_SIDE * TR_BLOCK_SIDE];
-  tr_render_block(s, b, p->rect_x + x, p->rect_y + y, w, h, colors);
+  /* Each path's pending rays, where glass can split paths (else one unused stack). */
+  TrRayStack stacks[TR_HAS(TR_F_DIELECTRIC) ? TR_BLOCK_SIDE * TR_BLOCK_SIDE : 1];
+  stacks[0].n = 0;
+  tr_render_block(s, b, stacks, p->rect_x + x, p->rect_y + y, w, h, colors);
   for (int k = 0; k < w * h; ++k) tr_store_rgb(out, p->rect_w, x + k % w, y + k / w, colors[k]);
 }

@@ -43,9 +43,12 @@ typedef struct TrTriangleAttr {
   int flags, pad0;
 } TrTriangleAttr;
 
-/* texture: index into the texture array, or -1 (device/texture.h). */
+/* texture: index into the texture array, or -1 (device/texture.h). transmission, ior
+ * and the absorption coefficients (per unit length, per channel) make a dielectric
+ * (dielectric.h); transmission 0 is opaque. */
 typedef struct TrMaterial {
   real r, g, b, ka, kd, ks, shininess, glaze;
+  real transmission, ior, absorb_r, absorb_g, absorb_b;
   int texture, pad0;
 } TrMaterial;
 
@@ -254,14 +257,28 @@ typedef struct TrSurface {
 } TrSurface;
 
 /* A camera ray's path through its mirror chain (trace.h): the ray of its next segment,
- * the color so far, the product of the glaze factors passed, and how many segments it
- * may still take (0: done). */
+ * the color so far, the product of the glaze (and, through glass, Fresnel and
+ * absorption) factors passed, and how many segments it may still take (0: done). */
 typedef struct TrPath {
   TrRay ray;
   vec3 color;
-  real weight;
+  vec3 weight;
   int segments_left;
 } TrPath;
+
+/* The rays a path has still to trace where glass split it in two (trace.h): each with
+ * its weight and the segments left to it, last in first out. A tree deeper than
+ * TR_RAY_STACK pending rays drops the reflected ray of the split that finds it full. */
+#define TR_RAY_STACK 8
+typedef struct TrPendingRay {
+  TrRay ray;
+  vec3 weight;
+  int segments_left;
+} TrPendingRay;
+typedef struct TrRayStack {
+  int n;
+  TrPendingRay ray[TR_RAY_STACK];
+} TrRayStack;
 
 /* A vec3 for each of a packet's rays or hits, one array per component, so that a loop
  * over them runs one per SIMD lane (tr_lane3, tr_set_lane3: math.h). */
@@ -298,6 +315,9 @@ typedef struct TrBlockScratch {
   int light_lit[TR_PACKET_MAX], shadow_traced[TR_PACKET_MAX], found_ray[TR_PACKET_MAX];
   int found[TR_PACKET_MAX], slot[TR_PACKET_MAX], lane[TR_PACKET_MAX];
   int lane_blocked[TR_PACKET_MAX], blocked[TR_PACKET_MAX];
+  /* The share of a light that reaches each hit through glass (1 or 0 where nothing
+   * transmits: shading.h tr_shadow_transmittance). */
+  real through[TR_PACKET_MAX];
 } TrBlockScratch;
 
 typedef struct TrSample2 {

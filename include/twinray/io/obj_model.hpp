@@ -9,9 +9,13 @@
 //   Ks       -> ks = mean of its channels (default 0)
 //   Ns       -> shininess (clamped to >= 0; default 1)
 //   illum    -> 3 or 5 (reflection on) with a non-zero Ks: glaze = min(1, ks)
+//   Tr       -> transmission = Tr (clamped to [0, 1]); else d (dissolve) -> transmission =
+//               1 - d; else illum 4, 6 or 7 (glass, refraction) -> transmission = 1. Always
+//               at most 1 - glaze (device/dielectric.h)
+//   Ni       -> ior, where > 0 (default 1.5)
 //   map_Kd   -> texture: the albedo is Kd x the texture at the hit's uv; options before
 //               the file name (-s, -o, -clamp, ...) are skipped, the image is used as is
-// Colours take one value (grey) or three. Other statements (d, Tr, Ni, bump maps, ...) are
+// Colours take one value (grey) or three. Other statements (Tf, bump maps, ...) are
 // ignored. A malformed value is an error naming the MTL file and line.
 //
 // Missing pieces are warnings, as other tools treat them (Blender's importer loads the
@@ -74,6 +78,8 @@ struct MtlMaterial {
   double ka[3] = {0, 0, 0}, kd[3] = {0.8, 0.8, 0.8}, ks[3] = {0, 0, 0};
   double ns = 1;
   long long illum = 2;
+  double ni = 0, d = 1, tr = 0;  // Ni, d and Tr as written (ni 0: none)
+  bool has_d = false, has_tr = false;
   bool has_kd = false;
   std::string map_kd;  // the texture file as written, or empty
   long long map_kd_line = 0;
@@ -110,7 +116,7 @@ inline std::vector<MtlMaterial> parse_mtl(const std::string& text, const std::st
           return;
         }
         if (key != "Ka" && key != "Kd" && key != "Ks" && key != "Ns" && key != "illum" &&
-            key != "map_Kd")
+            key != "map_Kd" && key != "Ni" && key != "d" && key != "Tr")
           return;  // a statement twinray does not read
         if (out.empty())
           throw invalid_input(obj_where(name, number) + std::string(key) +
@@ -133,11 +139,21 @@ inline std::vector<MtlMaterial> parse_mtl(const std::string& text, const std::st
           for (int k = 0; k < 3; ++k)
             c[k] = obj_number<double>(token[count == 1 ? 0 : k], name, number, what.c_str());
           if (key == "Kd") m.has_kd = true;
-        } else if (key == "Ns") {
+        } else if (key == "Ns" || key == "Ni" || key == "Tr") {
           if (count != 1)
-            throw invalid_input(obj_where(name, number) + "Ns takes 1 value, got " +
-                                std::to_string(count));
-          m.ns = obj_number<double>(token[0], name, number, what.c_str());
+            throw invalid_input(obj_where(name, number) + std::string(key) +
+                                " takes 1 value, got " + std::to_string(count));
+          double v = obj_number<double>(token[0], name, number, what.c_str());
+          if (key == "Ns") m.ns = v;
+          if (key == "Ni") m.ni = v;
+          if (key == "Tr") m.tr = v, m.has_tr = true;
+        } else if (key == "d") {  // d [-halo] factor
+          int first = count > 0 && token[0] == "-halo" ? 1 : 0;
+          if (count != first + 1)
+            throw invalid_input(obj_where(name, number) + "d takes 1 value, got " +
+                                std::to_string(count - first));
+          m.d = obj_number<double>(token[first], name, number, what.c_str());
+          m.has_d = true;
         } else if (key == "illum") {
           long long v = -1;
           auto r = std::from_chars(token[0].data(), token[0].data() + token[0].size(), v);
@@ -192,6 +208,11 @@ Material<T> material_from_mtl(const MtlMaterial& m) {
   out.ks = static_cast<T>(std::max(0.0, (m.ks[0] + m.ks[1] + m.ks[2]) / 3.0));
   out.shininess = static_cast<T>(std::max(0.0, m.ns));
   if ((m.illum == 3 || m.illum == 5) && out.ks > T(0)) out.glaze = std::min(T(1), out.ks);
+  double transmission = m.has_tr  ? m.tr
+                        : m.has_d ? 1.0 - m.d
+                                  : (m.illum == 4 || m.illum == 6 || m.illum == 7 ? 1.0 : 0.0);
+  out.transmission = std::min(T(1) - out.glaze, static_cast<T>(std::clamp(transmission, 0.0, 1.0)));
+  if (m.ni > 0) out.ior = static_cast<T>(m.ni);
   return out;
 }
 

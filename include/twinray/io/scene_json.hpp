@@ -227,7 +227,9 @@ class SceneReader : public JsonReader<T> {
 
   Material<T> read_material(const Json& m, const std::string& path) {
     require_object(m, path);
-    check_keys(m, path, {"color", "ka", "kd", "ks", "shininess", "glaze"});
+    check_keys(
+        m, path,
+        {"color", "ka", "kd", "ks", "shininess", "glaze", "transmission", "ior", "absorption"});
     Material<T> mat;
     if (const Json* v = optional(m, "color")) mat.color = color(*v, key_path(path, "color"));
     if (const Json* v = optional(m, "ka")) mat.ka = scalar(*v, key_path(path, "ka"), 0.0);
@@ -237,6 +239,16 @@ class SceneReader : public JsonReader<T> {
       mat.shininess = scalar(*v, key_path(path, "shininess"), 0.0);
     if (const Json* v = optional(m, "glaze"))
       mat.glaze = scalar(*v, key_path(path, "glaze"), 0.0, 1.0);
+    if (const Json* v = optional(m, "transmission"))
+      mat.transmission = scalar(*v, key_path(path, "transmission"), 0.0, 1.0);
+    if (mat.transmission > T(1) - mat.glaze)  // validate_material's test
+      fail(key_path(path, "transmission"), "glaze + transmission must be at most 1, got " +
+                                               twinray::detail::format_number(mat.glaze) + " + " +
+                                               twinray::detail::format_number(mat.transmission));
+    if (const Json* v = optional(m, "ior"))
+      mat.ior = scalar(*v, key_path(path, "ior"), 0.0, INFINITY, true);
+    if (const Json* v = optional(m, "absorption"))
+      mat.absorption = vector3(*v, key_path(path, "absorption"), 0.0);
     return mat;
   }
 

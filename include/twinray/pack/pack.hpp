@@ -48,6 +48,7 @@ struct SceneSummary {
   glm::vec<3, T> background{T(0), T(0), T(0)};
   unsigned features = 0;  // the geometry bits of PackedScene::features
   bool any_glazed = false;
+  bool any_transmissive = false;
 };
 
 // The packed geometry of a scene: what a backend uploads once and keeps across frames.
@@ -74,7 +75,8 @@ struct PackedScene {
   // Bits of the geometry: TR_F_SPHERES, TR_F_TRIANGLES, TR_F_PLANES, TR_F_BVH2/4/8,
   // TR_F_ATTRIBUTES, TR_F_TEXTURES, TR_F_MASKS.
   unsigned features = 0;
-  bool any_glazed = false;  // some material has glaze > 0
+  bool any_glazed = false;        // some material has glaze > 0
+  bool any_transmissive = false;  // some material has transmission > 0 (glass)
 
   SceneSummary<T> summary() const {
     SceneSummary<T> s;
@@ -85,6 +87,7 @@ struct PackedScene {
     s.background = background;
     s.features = features;
     s.any_glazed = any_glazed;
+    s.any_transmissive = any_transmissive;
     return s;
   }
 
@@ -245,9 +248,11 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
   PackedScene<T> ps;
   ps.background = scene.background;
   for (const Material<T>& m : scene.materials) {
-    ps.materials.push_back(
-        {m.color.x, m.color.y, m.color.z, m.ka, m.kd, m.ks, m.shininess, m.glaze, m.texture, 0});
+    ps.materials.push_back({m.color.x, m.color.y, m.color.z, m.ka, m.kd, m.ks, m.shininess, m.glaze,
+                            m.transmission, m.ior, m.absorption.x, m.absorption.y, m.absorption.z,
+                            m.texture, 0});
     if (m.glaze > T(0)) ps.any_glazed = true;
+    if (m.transmission > T(0)) ps.any_transmissive = true;
   }
   for (const Texture<T>& t : scene.textures) {
     ps.textures.push_back({t.width, t.height, static_cast<int>(ps.texels.size()), 0});
@@ -412,6 +417,7 @@ unsigned features_of(const SceneSummary<T>& ps, size_t n_lights, const RenderOpt
     if (lit && (options.terms & kSpecular)) f |= TR_F_SPECULAR;
     if (options.shadows && (f & (TR_F_DIFFUSE | TR_F_SPECULAR))) f |= TR_F_SHADOWS;
     if (options.glaze && options.max_depth > 1 && ps.any_glazed) f |= TR_F_GLAZE;
+    if (ps.any_transmissive) f |= TR_F_DIELECTRIC;
   }
   return f;
 }

@@ -262,6 +262,11 @@ void validate_material(const Material<T>& m, size_t i, size_t textures) {
   require_range(base + ".ks", m.ks, T(0), T(INFINITY));
   require_range(base + ".shininess", m.shininess, T(0), T(INFINITY));
   require_range(base + ".glaze", m.glaze, T(0), T(1));
+  require_range(base + ".transmission", m.transmission, T(0), T(1) - m.glaze);
+  require_range(base + ".ior", m.ior, T(0), T(INFINITY), true);
+  for (int c = 0; c < 3; ++c)
+    require_range(base + ".absorption[" + std::to_string(c) + "]", m.absorption[c], T(0),
+                  T(INFINITY));
   if (m.texture < -1 || m.texture >= static_cast<int>(textures))
     refuse(base + ".texture", "no texture with index " + std::to_string(m.texture) + " (" +
                                   std::to_string(textures) + " defined)");
