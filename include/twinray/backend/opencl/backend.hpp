@@ -254,14 +254,17 @@ class OpenCLBackend final : public RenderBackend<T> {
     if (n > 0 && flags != 0 && !extra_out)
       throw invalid_input("intersect_buffers: extras asked for, but extra_out is null");
     std::lock_guard<std::mutex> lock(ctx_.mutex());
-    run_query(true, rays, hits, extra_out ? extra_out : hits, flags, 0, n);
+    with_query_kernel(true, n, [&](cl_kernel k) {
+      launch_query(k, true, rays, hits, extra_out ? extra_out : hits, flags, n);
+    });
   }
   void occluded_buffers(cl_mem rays, size_t n, cl_mem blocked) {
     if (n > 0 && (!rays || !blocked))
       throw invalid_input("occluded_buffers: null rays or blocked for " + std::to_string(n) +
                           " rays");
     std::lock_guard<std::mutex> lock(ctx_.mutex());
-    run_query(false, rays, blocked, nullptr, 0, 0, n);
+    with_query_kernel(false, n,
+                      [&](cl_kernel k) { launch_query(k, false, rays, blocked, nullptr, 0, n); });
   }
   // The context the query buffers must belong to.
   Context& context() { return ctx_; }
@@ -294,6 +297,27 @@ class OpenCLBackend final : public RenderBackend<T> {
     return true;
   }
 
+  // Runs `launches(kernel)` with the intersect (closest) or occluded kernel, its scene's
+  // arguments set, for a batch of n rays: the scene and the query parameters on the
+  // device first. One kernel object serves the batch's launches, whatever their
+  // number. The caller holds the context's lock.
+  template <class Launches>
+  void with_query_kernel(bool closest, size_t n, const Launches& launches) {
+    require_scene(has_scene_);
+    if (n == 0) return;
+    upload_pending_scene();
+    buffers_.upload_params(ctx_, query_params(scene_));
+    bool built = false;
+    double ms = 0;
+    ProgramCache::Entry& program = ctx_.programs().get(
+        build_options(ctx_.info(), scene_.features, sizeof(T) == 8, TR_ENTRY_QUERY, true), &built,
+        &ms);
+    Kernels kernels(program.program, {closest ? "tr_kernel_intersect" : "tr_kernel_occluded"});
+    set_scene_args(kernels[0]);
+    launches(kernels[0]);
+    ctx_.programs().save_binary(program);
+  }
+
   // A host-side query: the rays go to the device kQueryChunk at a time through fixed
   // buffers, and each chunk's answers (out_size bytes a ray, and the extras) come back
   // before the next goes.
@@ -302,6 +326,14 @@ class OpenCLBackend final : public RenderBackend<T> {
     require_scene(has_scene_);
     std::lock_guard<std::mutex> lock(ctx_.mutex());
     if (n == 0) return;
+    with_query_kernel(closest, n, [&](cl_kernel k) {
+      host_query_chunks(k, closest, rays, n, out, out_size, extras, extra_out);
+    });
+  }
+
+  // host_query's chunks, through kernel k (with_query_kernel).
+  void host_query_chunks(cl_kernel k, bool closest, const Ray<T>* rays, size_t n, void* out,
+                         size_t out_size, unsigned extras, HitExtra<T>* extra_out) {
     const size_t chunk = std::min(n, kQueryChunk);
     query_rays_.reserve(ctx_.context(), CL_MEM_READ_ONLY, chunk * sizeof(Ray<T>),
                         "clCreateBuffer (query rays)");
@@ -315,8 +347,8 @@ class OpenCLBackend final : public RenderBackend<T> {
       check(clEnqueueWriteBuffer(ctx_.queue(), query_rays_.mem(), CL_FALSE, 0,
                                  count * sizeof(Ray<T>), rays + first, 0, nullptr, nullptr),
             "clEnqueueWriteBuffer (query rays)");
-      run_query(closest, query_rays_.mem(), query_out_.mem(),
-                extras != 0 ? query_extras_.mem() : query_out_.mem(), extras, 0, count);
+      launch_query(k, closest, query_rays_.mem(), query_out_.mem(),
+                   extras != 0 ? query_extras_.mem() : query_out_.mem(), extras, count);
       check(clEnqueueReadBuffer(ctx_.queue(), query_out_.mem(), CL_TRUE, 0, count * out_size,
                                 static_cast<char*>(out) + first * out_size, 0, nullptr, nullptr),
             "clEnqueueReadBuffer (query answers)");
@@ -328,23 +360,11 @@ class OpenCLBackend final : public RenderBackend<T> {
     }
   }
 
-  // Runs the intersect (closest) or occluded kernel over rays [first, end) of the
-  // device buffers, in launches of at most 2^24 work-items (the global offset says
-  // where each starts), and waits for it. The caller holds the context's lock.
-  void run_query(bool closest, cl_mem rays, cl_mem out, cl_mem extras, unsigned extra_flags,
-                 size_t first, size_t end) {
-    require_scene(has_scene_);
-    if (first >= end) return;
-    upload_pending_scene();
-    buffers_.upload_params(ctx_, query_params(scene_));
-    bool built = false;
-    double ms = 0;
-    ProgramCache::Entry& program = ctx_.programs().get(
-        build_options(ctx_.info(), scene_.features, sizeof(T) == 8, TR_ENTRY_QUERY, true), &built,
-        &ms);
-    Kernels kernels(program.program, {closest ? "tr_kernel_intersect" : "tr_kernel_occluded"});
-    cl_kernel k = kernels[0];
-    set_scene_args(k);
+  // Runs query kernel k (with_query_kernel: tr_kernel_intersect where `closest`, else
+  // tr_kernel_occluded) over the first n rays of the device buffers, in launches of at
+  // most 2^24 work-items (the global offset says where each starts), and waits for it.
+  void launch_query(cl_kernel k, bool closest, cl_mem rays, cl_mem out, cl_mem extras,
+                    unsigned extra_flags, size_t n) {
     cl_uint arg = kSceneArgs;
     set_arg(k, arg++, sizeof(cl_mem), &rays);
     set_arg(k, arg++, sizeof(cl_mem), &out);
@@ -353,17 +373,16 @@ class OpenCLBackend final : public RenderBackend<T> {
       set_arg(k, arg++, sizeof(cl_mem), &extras);
       set_arg(k, arg++, sizeof flags, &flags);
     }
-    cl_ulong last = end;
+    cl_ulong last = n;
     set_arg(k, arg, sizeof last, &last);
     const size_t local = 64, piece = size_t(1) << 24;
-    for (size_t at = first; at < end; at += piece) {
-      size_t count = std::min(piece, end - at);
+    for (size_t at = 0; at < n; at += piece) {
+      size_t count = std::min(piece, n - at);
       size_t global = (count + local - 1) / local * local;
       check(clEnqueueNDRangeKernel(ctx_.queue(), k, 1, &at, &global, &local, 0, nullptr, nullptr),
             "clEnqueueNDRangeKernel (ray query)");
     }
     check(clFinish(ctx_.queue()), "clFinish");
-    ctx_.programs().save_binary(program);
   }
 
   // Work-items in side x side work-groups. Pixel kernels use 8x8 on every device:
