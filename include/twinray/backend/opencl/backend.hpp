@@ -2,7 +2,9 @@
 // for the render's Features mask (program.hpp), sends the scene's arrays once per scene
 // and the frame's parameters and lights every render (buffers.hpp), runs one
 // work-item per pixel of the rectangle and reads the framebuffer back. On a CPU device
-// the scene's arrays and the framebuffer are the host's own memory, not copies.
+// the scene's arrays and the framebuffer are the host's own memory, not copies. Each
+// triangle's index in its mesh, which only ray queries read, goes to the device at the
+// first query on a scene: renders never hold it there.
 #pragma once
 
 #include <array>
@@ -62,7 +64,7 @@ class OpenCLBackend final : public RenderBackend<T> {
   explicit OpenCLBackend(int device_index = -1) : OpenCLBackend(shared_context(device_index)) {}
   // The backend on a context the caller made, and keeps alive longer than the backend:
   // its own program cache, outside the process-wide one.
-  explicit OpenCLBackend(Context& context) : ctx_(context) {
+  explicit OpenCLBackend(Context& context) : ctx_(context), in_place_(in_place_on(ctx_.info())) {
     if (sizeof(T) == 8 && !ctx_.info().has_fp64)
       throw Error(ErrorKind::BackendUnavailable,
                   "OpenCL device " + ctx_.info().name +
@@ -96,9 +98,13 @@ class OpenCLBackend final : public RenderBackend<T> {
   // out: its uninitialized-memory checker marks global memory as defined only when the
   // host writes it through the API, so a CL_MEM_USE_HOST_PTR buffer would read as
   // uninitialized everywhere and hide the kernel's real reads of undefined data.
-  bool shares_host_memory() const {
-    const DeviceInfo& dev = ctx_.info();
-    return dev.is_cpu && dev.platform_name.find("Oclgrind") == std::string::npos;
+  // TWINRAY_OPENCL_IN_PLACE=0, read when the backend is made, copies on every device
+  // (the tests cover the copying path on a CPU device so).
+  bool shares_host_memory() const { return in_place_; }
+  static bool in_place_on(const DeviceInfo& dev) {
+    const char* in_place = std::getenv("TWINRAY_OPENCL_IN_PLACE");
+    return dev.is_cpu && dev.platform_name.find("Oclgrind") == std::string::npos &&
+           !(in_place && std::string(in_place) == "0");
   }
   const SceneBuffers& scene_buffers() const { return buffers_; }
 
@@ -285,27 +291,42 @@ class OpenCLBackend final : public RenderBackend<T> {
   using Params = typename device::Code<T>::Params;
 
   // Sends the scene set last to the device if it has not gone yet; whether it went now.
+  // Its triangle_faces stay on the host until a query (upload_faces).
   bool upload_pending_scene() {
     if (!pending_) return false;
     const bool in_place = shares_host_memory();
     buffers_.upload_scene(ctx_, *pending_, in_place);
     // In place, the device reads the packed arrays themselves: keep them. Otherwise
-    // the device holds a copy, and the host's is the caller's business.
+    // the device holds a copy, and the host's is the caller's business: all but
+    // triangle_faces, kept here (4 bytes a triangle) for a query to send.
+    LargeVector<int>().swap(host_faces_);
+    if (!in_place) host_faces_ = pending_->triangle_faces;
     host_scene_ = in_place ? std::move(pending_) : nullptr;
     pending_.reset();
     ++scene_uploads_;
     return true;
   }
 
+  // Sends the scene's triangle_faces to the device (wraps them in place) if they have
+  // not gone yet: queries order ties and report hits by them, renders never read them.
+  void upload_faces() {
+    if (buffers_.has_faces()) return;
+    const bool in_place = shares_host_memory();
+    const LargeVector<int>& faces = in_place ? host_scene_->triangle_faces : host_faces_;
+    buffers_.upload_faces(ctx_, faces.data(), faces.size(), in_place);
+    if (!in_place) LargeVector<int>().swap(host_faces_);  // the device's copy serves now
+  }
+
   // Runs `launches(kernel)` with the intersect (closest) or occluded kernel, its scene's
-  // arguments set, for a batch of n rays: the scene and the query parameters on the
-  // device first. One kernel object serves the batch's launches, whatever their
-  // number. The caller holds the context's lock.
+  // arguments set, for a batch of n rays: the scene, its triangle_faces and the query
+  // parameters on the device first. One kernel object serves the batch's launches,
+  // whatever their number. The caller holds the context's lock.
   template <class Launches>
   void with_query_kernel(bool closest, size_t n, const Launches& launches) {
     require_scene(has_scene_);
     if (n == 0) return;
     upload_pending_scene();
+    upload_faces();
     buffers_.upload_params(ctx_, query_params(scene_));
     bool built = false;
     double ms = 0;
@@ -487,6 +508,9 @@ class OpenCLBackend final : public RenderBackend<T> {
   // The arrays the device reads in place (shares_host_memory()); declared before the
   // buffers that wrap them, so that it outlives them.
   std::shared_ptr<const PackedScene<T>> host_scene_;
+  // The scene's triangle_faces while a device that copies has not got them (upload_faces).
+  LargeVector<int> host_faces_;
+  bool in_place_;  // shares_host_memory()
   bool has_scene_ = false;
   long long scene_uploads_ = 0;
   SceneBuffers buffers_;
