@@ -73,6 +73,17 @@ std::vector<uint8_t> blocked_of(RenderBackend<T>& b, const std::vector<Ray<T>>& 
   return blocked;
 }
 
+// A camera on the mixed scene (query_scenes.hpp) from the front, width x height.
+template <class T>
+Camera<T> mixed_scene_camera(int width, int height) {
+  Camera<T> camera;
+  camera.position = vec3<T>(0, 1, 12);
+  camera.look_at = vec3<T>(0, 0, 0);
+  camera.width = width;
+  camera.height = height;
+  return camera;
+}
+
 template <class H>
 bool is_miss(const H& h) {
   return std::isinf(h.t) && h.t > 0 && h.object == -1 && h.primitive == -1 && h.u == 0 &&
@@ -364,11 +375,7 @@ TEST_CASE_TEMPLATE("masks skip objects, cost renders nothing and change no rende
     for (const auto& x : hits_of(*b, none)) CHECK(x.object == -1);
   }
   // A render of the masked scene is the render of the scene without masks, bit for bit.
-  Camera<T> camera;
-  camera.position = vec3<T>(0, 1, 12);
-  camera.look_at = vec3<T>(0, 0, 0);
-  camera.width = 64;
-  camera.height = 48;
+  const Camera<T> camera = mixed_scene_camera<T>(64, 48);
   RenderOptions options;
   options.backend = Backend::Cpu;
   s.lights.push_back({vec3<T>(5, 8, 10), T(100), vec3<T>(1)});
@@ -561,11 +568,7 @@ TEST_CASE_TEMPLATE("OpenCL: renders leave triangle_faces on the host, queries af
     if (std::string(in_place) == "0") CHECK(!cl.shares_host_memory());
     Scene<T> s = query_test::mixed_scene<T>(11u, 80);
     s.lights.push_back({vec3<T>(5, 8, 10), T(100), vec3<T>(1)});
-    Camera<T> camera;
-    camera.position = vec3<T>(0, 1, 12);
-    camera.look_at = vec3<T>(0, 0, 0);
-    camera.width = 48;
-    camera.height = 32;
+    const Camera<T> camera = mixed_scene_camera<T>(48, 32);
     RenderOptions options;
     options.backend = Backend::Cpu;
     const Image<T> expected = render(s, camera, options);
