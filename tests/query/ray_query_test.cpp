@@ -17,6 +17,7 @@
 #endif
 
 #include "query/query_scenes.hpp"
+#include "support/scoped_env.hpp"
 
 using namespace twinray;
 using query_test::vec3;
@@ -70,6 +71,17 @@ std::vector<uint8_t> blocked_of(RenderBackend<T>& b, const std::vector<Ray<T>>& 
   std::vector<uint8_t> blocked(rays.size(), 7);
   b.occluded(rays.data(), rays.size(), blocked.data());
   return blocked;
+}
+
+// A camera on the mixed scene (query_scenes.hpp) from the front, width x height.
+template <class T>
+Camera<T> mixed_scene_camera(int width, int height) {
+  Camera<T> camera;
+  camera.position = vec3<T>(0, 1, 12);
+  camera.look_at = vec3<T>(0, 0, 0);
+  camera.width = width;
+  camera.height = height;
+  return camera;
 }
 
 template <class H>
@@ -363,11 +375,7 @@ TEST_CASE_TEMPLATE("masks skip objects, cost renders nothing and change no rende
     for (const auto& x : hits_of(*b, none)) CHECK(x.object == -1);
   }
   // A render of the masked scene is the render of the scene without masks, bit for bit.
-  Camera<T> camera;
-  camera.position = vec3<T>(0, 1, 12);
-  camera.look_at = vec3<T>(0, 0, 0);
-  camera.width = 64;
-  camera.height = 48;
+  const Camera<T> camera = mixed_scene_camera<T>(64, 48);
   RenderOptions options;
   options.backend = Backend::Cpu;
   s.lights.push_back({vec3<T>(5, 8, 10), T(100), vec3<T>(1)});
@@ -537,5 +545,68 @@ TEST_CASE_TEMPLATE("OpenCL: rays and hits in device buffers, and batches over ma
   clReleaseMemObject(in);
   clReleaseMemObject(out);
   clReleaseMemObject(blocked);
+}
+
+// Bytes of an OpenCL buffer.
+size_t mem_size(cl_mem m) {
+  size_t size = 0;
+  REQUIRE(clGetMemObjectInfo(m, CL_MEM_SIZE, sizeof size, &size, nullptr) == CL_SUCCESS);
+  return size;
+}
+
+TEST_CASE_TEMPLATE("OpenCL: renders leave triangle_faces on the host, queries after them agree", T,
+                   float, double) {
+  if (!have_opencl()) {
+    MESSAGE("no OpenCL device: skipped");
+    return;
+  }
+  // Both ways a device gets the scene: wrapped in place (a CPU device) and copied.
+  for (const char* in_place : {"1", "0"}) {
+    CAPTURE(in_place);
+    test_support::ScopedEnv env("TWINRAY_OPENCL_IN_PLACE", in_place);
+    opencl::OpenCLBackend<T> cl;
+    if (std::string(in_place) == "0") CHECK(!cl.shares_host_memory());
+    Scene<T> s = query_test::mixed_scene<T>(11u, 80);
+    s.lights.push_back({vec3<T>(5, 8, 10), T(100), vec3<T>(1)});
+    const Camera<T> camera = mixed_scene_camera<T>(48, 32);
+    RenderOptions options;
+    options.backend = Backend::Cpu;
+    const Image<T> expected = render(s, camera, options);
+    options.backend = Backend::OpenCL;
+    const std::vector<Ray<T>> rays = query_test::random_rays<T>(20000, 12u, true);
+    for (int width : {8, 2}) {  // a second scene replaces the first
+      CAPTURE(width);
+      auto ps = packed(s, width);
+      const size_t face_bytes = ps->triangle_faces.size() * sizeof(int);
+      REQUIRE(face_bytes > 0);
+      auto cpu = backend_on<T>(Backend::Cpu, ps);
+      const auto ref = hits_of(*cpu, rays);
+      const auto ref_blocked = blocked_of(*cpu, rays);
+      // Some hits are on mesh triangles other than the first: their faces matter.
+      CHECK(std::count_if(ref.begin(), ref.end(), [](const Hit<T>& h) { return h.primitive > 0; }) >
+            100);
+
+      cl.set_scene(ps);
+      auto render_once = [&] {
+        Image<T> image = cl.render({camera, s.lights, options, {}});
+        REQUIRE(image.rgb.size() == expected.rgb.size());
+        CHECK(std::memcmp(image.rgb.data(), expected.rgb.data(), image.rgb.size() * sizeof(T)) ==
+              0);
+      };
+      render_once();
+      // The render sent every array but triangle_faces; its kernel got a placeholder.
+      CHECK(!cl.scene_buffers().has_faces());
+      CHECK(cl.scene_buffers().scene_bytes() == ps->bytes() - face_bytes);
+      CHECK(mem_size(cl.scene_buffers().args()[opencl::kSceneArgs - 1]) == 16);
+      // The first query sends them; later renders and queries keep them.
+      CHECK(query_test::same_bytes(hits_of(cl, rays), ref));
+      CHECK(cl.scene_buffers().has_faces());
+      CHECK(cl.scene_buffers().scene_bytes() == ps->bytes());
+      CHECK(mem_size(cl.scene_buffers().args()[opencl::kSceneArgs - 1]) == face_bytes);
+      render_once();
+      CHECK(blocked_of(cl, rays) == ref_blocked);
+      CHECK(query_test::same_bytes(hits_of(cl, rays), ref));
+    }
+  }
 }
 #endif

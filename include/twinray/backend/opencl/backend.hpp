@@ -2,7 +2,9 @@
 // for the render's Features mask (program.hpp), sends the scene's arrays once per scene
 // and the frame's parameters and lights every render (buffers.hpp), runs one
 // work-item per pixel of the rectangle and reads the framebuffer back. On a CPU device
-// the scene's arrays and the framebuffer are the host's own memory, not copies.
+// the scene's arrays and the framebuffer are the host's own memory, not copies. Each
+// triangle's index in its mesh, which only ray queries read, goes to the device at the
+// first query on a scene: renders never hold it there.
 #pragma once
 
 #include <array>
@@ -62,7 +64,7 @@ class OpenCLBackend final : public RenderBackend<T> {
   explicit OpenCLBackend(int device_index = -1) : OpenCLBackend(shared_context(device_index)) {}
   // The backend on a context the caller made, and keeps alive longer than the backend:
   // its own program cache, outside the process-wide one.
-  explicit OpenCLBackend(Context& context) : ctx_(context) {
+  explicit OpenCLBackend(Context& context) : ctx_(context), in_place_(in_place_on(ctx_.info())) {
     if (sizeof(T) == 8 && !ctx_.info().has_fp64)
       throw Error(ErrorKind::BackendUnavailable,
                   "OpenCL device " + ctx_.info().name +
@@ -96,9 +98,13 @@ class OpenCLBackend final : public RenderBackend<T> {
   // out: its uninitialized-memory checker marks global memory as defined only when the
   // host writes it through the API, so a CL_MEM_USE_HOST_PTR buffer would read as
   // uninitialized everywhere and hide the kernel's real reads of undefined data.
-  bool shares_host_memory() const {
-    const DeviceInfo& dev = ctx_.info();
-    return dev.is_cpu && dev.platform_name.find("Oclgrind") == std::string::npos;
+  // TWINRAY_OPENCL_IN_PLACE=0, read when the backend is made, copies on every device
+  // (the tests cover the copying path on a CPU device so).
+  bool shares_host_memory() const { return in_place_; }
+  static bool in_place_on(const DeviceInfo& dev) {
+    const char* in_place = std::getenv("TWINRAY_OPENCL_IN_PLACE");
+    return dev.is_cpu && dev.platform_name.find("Oclgrind") == std::string::npos &&
+           !(in_place && std::string(in_place) == "0");
   }
   const SceneBuffers& scene_buffers() const { return buffers_; }
 
@@ -254,14 +260,17 @@ class OpenCLBackend final : public RenderBackend<T> {
     if (n > 0 && flags != 0 && !extra_out)
       throw invalid_input("intersect_buffers: extras asked for, but extra_out is null");
     std::lock_guard<std::mutex> lock(ctx_.mutex());
-    run_query(true, rays, hits, extra_out ? extra_out : hits, flags, 0, n);
+    with_query_kernel(true, n, [&](cl_kernel k) {
+      launch_query(k, true, rays, hits, extra_out ? extra_out : hits, flags, n);
+    });
   }
   void occluded_buffers(cl_mem rays, size_t n, cl_mem blocked) {
     if (n > 0 && (!rays || !blocked))
       throw invalid_input("occluded_buffers: null rays or blocked for " + std::to_string(n) +
                           " rays");
     std::lock_guard<std::mutex> lock(ctx_.mutex());
-    run_query(false, rays, blocked, nullptr, 0, 0, n);
+    with_query_kernel(false, n,
+                      [&](cl_kernel k) { launch_query(k, false, rays, blocked, nullptr, 0, n); });
   }
   // The context the query buffers must belong to.
   Context& context() { return ctx_; }
@@ -282,16 +291,52 @@ class OpenCLBackend final : public RenderBackend<T> {
   using Params = typename device::Code<T>::Params;
 
   // Sends the scene set last to the device if it has not gone yet; whether it went now.
+  // Its triangle_faces stay on the host until a query (upload_faces).
   bool upload_pending_scene() {
     if (!pending_) return false;
     const bool in_place = shares_host_memory();
     buffers_.upload_scene(ctx_, *pending_, in_place);
     // In place, the device reads the packed arrays themselves: keep them. Otherwise
-    // the device holds a copy, and the host's is the caller's business.
+    // the device holds a copy, and the host's is the caller's business: all but
+    // triangle_faces, kept here (4 bytes a triangle) for a query to send.
+    LargeVector<int>().swap(host_faces_);
+    if (!in_place) host_faces_ = pending_->triangle_faces;
     host_scene_ = in_place ? std::move(pending_) : nullptr;
     pending_.reset();
     ++scene_uploads_;
     return true;
+  }
+
+  // Sends the scene's triangle_faces to the device (wraps them in place) if they have
+  // not gone yet: queries order ties and report hits by them, renders never read them.
+  void upload_faces() {
+    if (buffers_.has_faces()) return;
+    const bool in_place = shares_host_memory();
+    const LargeVector<int>& faces = in_place ? host_scene_->triangle_faces : host_faces_;
+    buffers_.upload_faces(ctx_, faces.data(), faces.size(), in_place);
+    if (!in_place) LargeVector<int>().swap(host_faces_);  // the device's copy serves now
+  }
+
+  // Runs `launches(kernel)` with the intersect (closest) or occluded kernel, its scene's
+  // arguments set, for a batch of n rays: the scene, its triangle_faces and the query
+  // parameters on the device first. One kernel object serves the batch's launches,
+  // whatever their number. The caller holds the context's lock.
+  template <class Launches>
+  void with_query_kernel(bool closest, size_t n, const Launches& launches) {
+    require_scene(has_scene_);
+    if (n == 0) return;
+    upload_pending_scene();
+    upload_faces();
+    buffers_.upload_params(ctx_, query_params(scene_));
+    bool built = false;
+    double ms = 0;
+    ProgramCache::Entry& program = ctx_.programs().get(
+        build_options(ctx_.info(), scene_.features, sizeof(T) == 8, TR_ENTRY_QUERY, true), &built,
+        &ms);
+    Kernels kernels(program.program, {closest ? "tr_kernel_intersect" : "tr_kernel_occluded"});
+    set_scene_args(kernels[0]);
+    launches(kernels[0]);
+    ctx_.programs().save_binary(program);
   }
 
   // A host-side query: the rays go to the device kQueryChunk at a time through fixed
@@ -302,6 +347,14 @@ class OpenCLBackend final : public RenderBackend<T> {
     require_scene(has_scene_);
     std::lock_guard<std::mutex> lock(ctx_.mutex());
     if (n == 0) return;
+    with_query_kernel(closest, n, [&](cl_kernel k) {
+      host_query_chunks(k, closest, rays, n, out, out_size, extras, extra_out);
+    });
+  }
+
+  // host_query's chunks, through kernel k (with_query_kernel).
+  void host_query_chunks(cl_kernel k, bool closest, const Ray<T>* rays, size_t n, void* out,
+                         size_t out_size, unsigned extras, HitExtra<T>* extra_out) {
     const size_t chunk = std::min(n, kQueryChunk);
     query_rays_.reserve(ctx_.context(), CL_MEM_READ_ONLY, chunk * sizeof(Ray<T>),
                         "clCreateBuffer (query rays)");
@@ -315,8 +368,8 @@ class OpenCLBackend final : public RenderBackend<T> {
       check(clEnqueueWriteBuffer(ctx_.queue(), query_rays_.mem(), CL_FALSE, 0,
                                  count * sizeof(Ray<T>), rays + first, 0, nullptr, nullptr),
             "clEnqueueWriteBuffer (query rays)");
-      run_query(closest, query_rays_.mem(), query_out_.mem(),
-                extras != 0 ? query_extras_.mem() : query_out_.mem(), extras, 0, count);
+      launch_query(k, closest, query_rays_.mem(), query_out_.mem(),
+                   extras != 0 ? query_extras_.mem() : query_out_.mem(), extras, count);
       check(clEnqueueReadBuffer(ctx_.queue(), query_out_.mem(), CL_TRUE, 0, count * out_size,
                                 static_cast<char*>(out) + first * out_size, 0, nullptr, nullptr),
             "clEnqueueReadBuffer (query answers)");
@@ -328,23 +381,11 @@ class OpenCLBackend final : public RenderBackend<T> {
     }
   }
 
-  // Runs the intersect (closest) or occluded kernel over rays [first, end) of the
-  // device buffers, in launches of at most 2^24 work-items (the global offset says
-  // where each starts), and waits for it. The caller holds the context's lock.
-  void run_query(bool closest, cl_mem rays, cl_mem out, cl_mem extras, unsigned extra_flags,
-                 size_t first, size_t end) {
-    require_scene(has_scene_);
-    if (first >= end) return;
-    upload_pending_scene();
-    buffers_.upload_params(ctx_, query_params(scene_));
-    bool built = false;
-    double ms = 0;
-    ProgramCache::Entry& program = ctx_.programs().get(
-        build_options(ctx_.info(), scene_.features, sizeof(T) == 8, TR_ENTRY_QUERY, true), &built,
-        &ms);
-    Kernels kernels(program.program, {closest ? "tr_kernel_intersect" : "tr_kernel_occluded"});
-    cl_kernel k = kernels[0];
-    set_scene_args(k);
+  // Runs query kernel k (with_query_kernel: tr_kernel_intersect where `closest`, else
+  // tr_kernel_occluded) over the first n rays of the device buffers, in launches of at
+  // most 2^24 work-items (the global offset says where each starts), and waits for it.
+  void launch_query(cl_kernel k, bool closest, cl_mem rays, cl_mem out, cl_mem extras,
+                    unsigned extra_flags, size_t n) {
     cl_uint arg = kSceneArgs;
     set_arg(k, arg++, sizeof(cl_mem), &rays);
     set_arg(k, arg++, sizeof(cl_mem), &out);
@@ -353,17 +394,16 @@ class OpenCLBackend final : public RenderBackend<T> {
       set_arg(k, arg++, sizeof(cl_mem), &extras);
       set_arg(k, arg++, sizeof flags, &flags);
     }
-    cl_ulong last = end;
+    cl_ulong last = n;
     set_arg(k, arg, sizeof last, &last);
     const size_t local = 64, piece = size_t(1) << 24;
-    for (size_t at = first; at < end; at += piece) {
-      size_t count = std::min(piece, end - at);
+    for (size_t at = 0; at < n; at += piece) {
+      size_t count = std::min(piece, n - at);
       size_t global = (count + local - 1) / local * local;
       check(clEnqueueNDRangeKernel(ctx_.queue(), k, 1, &at, &global, &local, 0, nullptr, nullptr),
             "clEnqueueNDRangeKernel (ray query)");
     }
     check(clFinish(ctx_.queue()), "clFinish");
-    ctx_.programs().save_binary(program);
   }
 
   // Work-items in side x side work-groups. Pixel kernels use 8x8 on every device:
@@ -468,6 +508,9 @@ class OpenCLBackend final : public RenderBackend<T> {
   // The arrays the device reads in place (shares_host_memory()); declared before the
   // buffers that wrap them, so that it outlives them.
   std::shared_ptr<const PackedScene<T>> host_scene_;
+  // The scene's triangle_faces while a device that copies has not got them (upload_faces).
+  LargeVector<int> host_faces_;
+  bool in_place_;  // shares_host_memory()
   bool has_scene_ = false;
   long long scene_uploads_ = 0;
   SceneBuffers buffers_;

@@ -1,6 +1,9 @@
 // OpenCL buffers of one backend: the scene's arrays (uploaded once per scene), the
 // frame's parameters and lights (a few hundred bytes, written every render), and the
 // framebuffer and adaptive-sampling scratch (grown as needed, never shrunk).
+// Each triangle's index in its mesh (PackedScene::triangle_faces) is read by ray
+// queries alone: it goes to the device at the first query on the scene, never for a
+// render, whose kernels get a 16-byte placeholder in its place.
 //
 // A CPU device shares the host's memory: there the scene's arrays and the framebuffer
 // are not copied but wrapped (CL_MEM_USE_HOST_PTR), so the device reads the packed
@@ -26,6 +29,8 @@ class Buffer {
   ~Buffer() { release(); }
 
   cl_mem mem() const { return mem_; }
+  // Bytes of data it holds: the last write() or wrap(); 0 after reserve() alone.
+  size_t bytes() const { return bytes_; }
 
   // At least `bytes` of storage (OpenCL has no empty buffers: 16 bytes at least);
   // contents undefined after a reallocation.
@@ -37,6 +42,7 @@ class Buffer {
     mem_ = clCreateBuffer(context, flags, want, nullptr, &err);
     check(err, what);
     capacity_ = want;
+    bytes_ = 0;
   }
 
   // Wraps `bytes` of host memory at `data` (CL_MEM_USE_HOST_PTR): the device uses that
@@ -48,6 +54,7 @@ class Buffer {
     cl_int err = CL_SUCCESS;
     mem_ = clCreateBuffer(context, flags | CL_MEM_USE_HOST_PTR, bytes, data, &err);
     check(err, what);
+    bytes_ = bytes;
     // capacity_ stays 0: the memory is the caller's, so a later reserve() or write()
     // makes a buffer of its own instead of writing into it.
   }
@@ -59,49 +66,76 @@ class Buffer {
     if (bytes > 0)
       check(clEnqueueWriteBuffer(ctx.queue(), mem_, CL_TRUE, 0, bytes, data, 0, nullptr, nullptr),
             "clEnqueueWriteBuffer");
+    bytes_ = bytes;
   }
 
   void release() {
     if (mem_) clReleaseMemObject(mem_);
     mem_ = nullptr;
     capacity_ = 0;
+    bytes_ = 0;
   }
 
  private:
   cl_mem mem_ = nullptr;
   size_t capacity_ = 0;
+  size_t bytes_ = 0;
 };
 
 // The buffers every kernel in kernels/render.cl takes as its first arguments, in this
 // order: params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims,
-// triangle_attrs, textures, texels, object_masks, triangle_faces.
+// triangle_attrs, textures, texels, object_masks, triangle_faces (a placeholder until
+// a query needs it: SceneBuffers::upload_faces).
 constexpr cl_uint kSceneArgs = 13;
 
 class SceneBuffers {
  public:
   // The scene's arrays, sent once per scene; or, with `in_place` (a device that shares
   // the host's memory), wrapped where they are: then `ps` must outlive the buffers.
+  // All but triangle_faces, which only queries read (upload_faces): its buffer becomes
+  // a 16-byte placeholder until then.
   template <class T>
   void upload_scene(const Context& ctx, const PackedScene<T>& ps, bool in_place) {
-    auto put_bytes = [&](Buffer& b, const void* data, size_t bytes) {
-      if (in_place)  // read-only on both sides: the const_cast only meets the C API
-        b.wrap(ctx.context(), CL_MEM_READ_ONLY, const_cast<void*>(data), bytes,
-               "clCreateBuffer (scene data, host memory)");
-      else
-        b.write(ctx, CL_MEM_READ_ONLY, data, bytes, "clCreateBuffer (scene data)");
+    auto put = [&](Buffer& b, const auto& v) {
+      put_bytes(ctx, b, v.data(), v.size() * sizeof(v[0]), in_place);
     };
-    auto put = [&](Buffer& b, const auto& v) { put_bytes(b, v.data(), v.size() * sizeof(v[0])); };
     put(spheres_, ps.spheres);
     put(triangles_, ps.triangles);
     put(planes_, ps.planes);
     put(materials_, ps.materials);
-    put_bytes(bvh_nodes_, ps.bvh_nodes.data(), ps.bvh_nodes.bytes());
+    put_bytes(ctx, bvh_nodes_, ps.bvh_nodes.data(), ps.bvh_nodes.bytes(), in_place);
     put(bvh_prims_, ps.bvh_prims);
     put(triangle_attrs_, ps.triangle_attrs);
     put(textures_, ps.textures);
     put(texels_, ps.texels);
     put(object_masks_, ps.object_masks);
-    put(triangle_faces_, ps.triangle_faces);
+    triangle_faces_.release();  // a larger buffer of the last scene's would stay otherwise
+    triangle_faces_.reserve(ctx.context(), CL_MEM_READ_ONLY, 0,
+                            "clCreateBuffer (triangle faces placeholder)");
+    has_faces_ = false;
+  }
+
+  // Each triangle's index in its mesh (PackedScene::triangle_faces), for ray queries:
+  // sent, or wrapped with `in_place` (then `faces` must outlive the buffers), once per
+  // scene. Whether it was sent now.
+  bool upload_faces(const Context& ctx, const int* faces, size_t count, bool in_place) {
+    if (has_faces_) return false;
+    put_bytes(ctx, triangle_faces_, faces, count * sizeof(int), in_place);
+    has_faces_ = true;
+    return true;
+  }
+  // Whether the device holds the scene's triangle_faces (upload_faces).
+  bool has_faces() const { return has_faces_; }
+
+  // Bytes of the scene's arrays the device holds, copied or wrapped (without the
+  // parameters and lights): PackedScene::bytes(), less triangle_faces until a query.
+  size_t scene_bytes() const {
+    size_t total = 0;
+    for (const Buffer* b :
+         {&spheres_, &triangles_, &planes_, &materials_, &bvh_nodes_, &bvh_prims_, &triangle_attrs_,
+          &textures_, &texels_, &object_masks_, &triangle_faces_})
+      total += b->bytes();
+    return total;
   }
 
   // The parameters of ray queries (query_params); no lights.
@@ -129,8 +163,18 @@ class SceneBuffers {
   cl_mem params() const { return params_.mem(); }
 
  private:
+  static void put_bytes(const Context& ctx, Buffer& b, const void* data, size_t bytes,
+                        bool in_place) {
+    if (in_place)  // read-only on both sides: the const_cast only meets the C API
+      b.wrap(ctx.context(), CL_MEM_READ_ONLY, const_cast<void*>(data), bytes,
+             "clCreateBuffer (scene data, host memory)");
+    else
+      b.write(ctx, CL_MEM_READ_ONLY, data, bytes, "clCreateBuffer (scene data)");
+  }
+
   Buffer params_, spheres_, triangles_, planes_, materials_, lights_, bvh_nodes_, bvh_prims_,
       triangle_attrs_, textures_, texels_, object_masks_, triangle_faces_;
+  bool has_faces_ = false;
 };
 
 }  // namespace opencl

@@ -37,6 +37,7 @@
 #include <unistd.h>
 
 #include <twinray/backend/opencl/device.hpp>
+#include <twinray/core/atomic_file.hpp>
 #include <twinray/core/process.hpp>
 #include <twinray/device/features.h>
 #include <twinray/generated/opencl_source.hpp>
@@ -117,28 +118,18 @@ inline bool keeps_binaries(const DeviceInfo& device) {
   return keeps_binaries(device, std::getenv("POCL_KERNEL_CACHE"));
 }
 
-// Writes a disk-cache file whole or not at all: the bytes go to a temporary file in
-// the same folder, named after the process and the caller, which is renamed over
-// `path`; a process killed half-way leaves a temporary, never a partial entry. The
-// folder is created where missing. Failures only cost the cache: returns false.
+// Writes a disk-cache file whole or not at all (core/atomic_file.hpp): a process killed
+// half-way leaves a temporary, never a partial entry. The temporary is named after the
+// host, the process and the thread, since two contexts of one process may save the same
+// program at once; no fsync, since a lost entry only costs a rebuild. The folder is
+// created where missing. Failures only cost the cache: returns false.
 inline bool write_cache_file(const std::string& path, const void* data, size_t size) {
   std::error_code ec;
   std::filesystem::create_directories(std::filesystem::path(path).parent_path(), ec);
-  const std::string tmp = path + ".tmp-" + std::to_string(::getpid()) + "-" +
-                          std::to_string(std::hash<std::thread::id>()(std::this_thread::get_id()));
-  {
-    std::ofstream f(tmp, std::ios::binary);
-    if (!f) return false;
-    f.write(static_cast<const char*>(data), static_cast<std::streamsize>(size));
-    f.close();
-    if (!f) {
-      std::remove(tmp.c_str());
-      return false;
-    }
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) == 0) return true;
-  std::remove(tmp.c_str());
-  return false;
+  const std::string suffix =
+      temporary_suffix() + "-" +
+      std::to_string(std::hash<std::thread::id>()(std::this_thread::get_id()));
+  return try_write_file_atomically(path, data, size, suffix, false);
 }
 
 // The binary of a built program (CL_PROGRAM_BINARIES); empty on failure.
