@@ -34,8 +34,10 @@ fi
 
 mesh_args=()
 if [[ " $* " != *" --mesh "* && " $* " != *" --mesh="* ]]; then
-  bunny="$("$py" -c 'import os, pymeshfix.examples as e
-print(os.path.join(os.path.dirname(e.__file__), "StanfordBunny.ply"))' 2>/dev/null || true)"
+  # find_spec locates the package without importing it (its examples module needs pyvista).
+  bunny="$("$py" -c 'import importlib.util as u, os
+print(os.path.join(os.path.dirname(u.find_spec("pymeshfix").origin), "examples", "StanfordBunny.ply"))' \
+    2>/dev/null || true)"
   if [[ -z "$bunny" || ! -f "$bunny" ]]; then
     echo "run.sh: the pymeshfix wheel's StanfordBunny.ply was not found; pass --mesh PATH" >&2
     exit 1
