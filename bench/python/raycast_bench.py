@@ -11,8 +11,8 @@ random directions (incoherent).
 Timing: interleaved rounds. Each round casts every (mesh, ray set) with every library once, the
 libraries in an order that rotates from round to round, and the table reports the median rays/s
 over the rounds. Scene building is timed apart from casting: each library's build is followed by
-a warm-up query of one ray, which for twinray includes packing the scene into its flat arrays
-(and for OpenCL the kernel build), for Embree's bindings the scene commit.
+a warm-up query of one ray, timed on its own. twinray packs the scene into its flat arrays in
+Tracer() (timed as such); for the Embree-based libraries the first query commits the scene.
 
 Agreement: each library's round-one answers are compared with twinray CPU's (or with the first
 library that ran, when twinray cannot be imported): the share of rays whose hit triangle is the
@@ -207,13 +207,16 @@ class Twinray:
         scene.add_mesh(mesh.vertices, mesh.triangles, material=m)
         times["scene"] = time.perf_counter() - t0
         t0 = time.perf_counter()
+        # Tracer() packs the scene into the flat arrays the kernels read (pack_count says how
+        # often it has packed: the casting rounds must not add to it).
         tracer = tr.Tracer(scene, backend=self.backend, precision="float")
-        times["tracer"] = time.perf_counter() - t0
-        # The first query packs the scene (and builds the OpenCL program); timed on one ray.
+        times["Tracer() (packs)"] = time.perf_counter() - t0
+        # The first query sets up the backend's per-query state (OpenCL: the program and its
+        # buffers); timed on one ray so that the rounds time casting only.
         warm = one_ray(mesh)
         t0 = time.perf_counter()
         tracer.intersect(warm.origins, warm.directions)
-        times["first 1-ray query (packing)"] = time.perf_counter() - t0
+        times["first 1-ray query"] = time.perf_counter() - t0
         return (scene, tracer), times
 
     def cast(self, state, rays):
@@ -376,19 +379,25 @@ def rel_diff(a, b):
     return np.abs(a - b) / np.maximum(np.abs(b), np.finfo(np.float64).tiny)
 
 
-def agreement(ref, other):
+def agreement(ref, other, diag):
     """Share of rays with the same hit triangle (misses agree with misses) and the largest
-    relative difference of t where both hit the same triangle."""
+    relative difference of t where both hit the same triangle, also as an absolute difference
+    over the mesh's bounding-box diagonal (the relative one grows without bound as t -> 0, when
+    a ray starts on the surface)."""
     same = ref["prim"] == other["prim"]
     share = float(np.count_nonzero(same)) / len(same)
     both = same & (ref["prim"] >= 0)
-    max_rel = None
+    max_rel = max_abs = None
     if other["t"] is not None and np.any(both):
-        max_rel = float(rel_diff(other["t"][both], ref["t"][both]).max())
+        a = other["t"][both].astype(np.float64)
+        b = ref["t"][both].astype(np.float64)
+        max_rel = float(rel_diff(a, b).max())
+        max_abs = float(np.abs(a - b).max()) / diag
     return {
         "same": share,
         "differ": int(len(same) - np.count_nonzero(same)),
         "max_rel_t": max_rel,
+        "max_abs_t": max_abs,
         "hits_ref": int(np.count_nonzero(ref["prim"] >= 0)),
         "hits": int(np.count_nonzero(other["prim"] >= 0)),
     }
@@ -410,6 +419,37 @@ def intersect64(o, d, v0, v1, v2):
         v = np.einsum("ij,ij->i", d, q) * inv
         t = np.einsum("ij,ij->i", e2, q) * inv
     return t, u, v, 1.0 - u - v
+
+
+def t_error64(mesh, rays, ans, chunk=1 << 20):
+    """How far a library's t lies from float64 Moller-Trumbore on the triangle the library
+    reports, over the rays it hits: the largest |t - t64| over the bounding-box diagonal, and
+    the median and largest |t - t64| / t64."""
+    hit = np.flatnonzero(ans["prim"] >= 0)
+    if not len(hit):
+        return None
+    vx = mesh.vertices
+    max_abs = 0.0
+    rels = np.empty(len(hit), dtype=np.float32)
+    for k in range(0, len(hit), chunk):
+        idx = hit[k : k + chunk]
+        tri = mesh.triangles[ans["prim"][idx]]
+        t64, _, _, _ = intersect64(
+            rays.origins[idx].astype(np.float64),
+            rays.directions[idx].astype(np.float64),
+            vx[tri[:, 0]].astype(np.float64),
+            vx[tri[:, 1]].astype(np.float64),
+            vx[tri[:, 2]].astype(np.float64),
+        )
+        err = np.abs(ans["t"][idx].astype(np.float64) - t64)
+        max_abs = max(max_abs, float(err.max()))
+        rels[k : k + len(idx)] = err / np.abs(t64)
+    diag = float(np.linalg.norm(mesh.hi - mesh.lo))
+    return {
+        "max_abs": max_abs / diag,
+        "median_rel": float(np.median(rels)),
+        "max_rel": float(rels.max()),
+    }
 
 
 class Explainer:
@@ -660,6 +700,8 @@ def main(argv=None):
     agree = {}  # (lib, mesh, set) -> agreement dict
     bitwise = {}  # (mesh, set) -> bool, twinray OpenCL against CPU
     explained = {}  # (lib, mesh, set) -> (Explainer, result)
+    accuracy = {}  # (lib, mesh, set) -> t_error64 dict
+    load_before = os.getloadavg()
     slot = 0
     for r in range(args.rounds):
         for mi, mesh in enumerate(meshes):
@@ -700,14 +742,20 @@ def main(argv=None):
                     for name, (ans, _) in kept.items():
                         if name == ref_name:
                             continue
-                        agree[name, mi, si] = agreement(ref, ans)
+                        agree[name, mi, si] = agreement(
+                            ref, ans, float(np.linalg.norm(mesh.hi - mesh.lo))
+                        )
                         ex = Explainer(mesh, rays, args.edge_eps, args.tie_rel, args.precision_rel)
                         explained[name, mi, si] = (ex, ex.classify(ref, ans))
                     if "twinray-cpu" in kept and "twinray-opencl" in kept:
                         a, b = kept["twinray-cpu"][1], kept["twinray-opencl"][1]
                         bitwise[mi, si] = all(np.array_equal(a[k], b[k]) for k in a)
+                    for name, (ans, _) in kept.items():
+                        if ans["t"] is not None and name != "twinray-opencl":
+                            accuracy[name, mi, si] = t_error64(mesh, rays, ans)
                 del kept
         log(f"round {r + 1} of {args.rounds} done")
+    load_after = os.getloadavg()
 
     # ---------------------------------------------------------------- report
     md = args.markdown
@@ -723,6 +771,13 @@ def main(argv=None):
     out.append(
         f"{n:,} rays per ray set, {args.rounds} interleaved rounds, median over rounds; "
         f"{os.cpu_count()} logical CPUs ({cpu}); Python {platform.python_version()}, numpy {np.__version__}."
+    )
+    out.append(
+        "Load average (1, 5, 15 min) before the rounds: "
+        + ", ".join(f"{x:.2f}" for x in load_before)
+        + "; after: "
+        + ", ".join(f"{x:.2f}" for x in load_after)
+        + "."
     )
     out.append("Versions: " + ", ".join(f"{lib.name} {lib.version}" for lib in libs) + ".")
     out.append("Meshes: " + "; ".join(m.name for m in meshes) + ".")
@@ -747,10 +802,15 @@ def main(argv=None):
                 )
     out.append(bt.render(md))
     if any(n.startswith("twinray") for n in names):
+        packs = ", ".join(
+            f"{name} on {meshes[mi].name}: {states[name, mi][1].pack_count}"
+            for (name, mi) in sorted(states)
+            if name.startswith("twinray")
+        )
         out.append(
-            "twinray: scene = Scene() + add_mesh; tracer = Tracer(); the first query (one ray) "
-            "packs the scene into the arrays the kernels read (OpenCL: also builds the program), "
-            "so the casting rounds below exclude packing.\n"
+            "twinray: scene = Scene() + add_material + add_mesh; Tracer() packs the scene into "
+            "the arrays the kernels read; the first query (one ray) is timed apart, so the casting "
+            f"rounds below exclude packing and set-up. Tracer.pack_count after all rounds: {packs}.\n"
         )
 
     ct = Table(
@@ -788,6 +848,7 @@ def main(argv=None):
             f"hits ({ref_name})",
             "hits",
             "max rel. t diff, same triangle",
+            "max abs. t diff / bbox diagonal",
             "OpenCL bitwise = CPU",
         ],
     )
@@ -803,6 +864,7 @@ def main(argv=None):
                     else ""
                 )
                 mr = "n/a (no t)" if a["max_rel_t"] is None else f"{a['max_rel_t']:.3g}"
+                ma = "n/a (no t)" if a["max_abs_t"] is None else f"{a['max_abs_t']:.3g}"
                 at.add(
                     mesh.name,
                     rays.name,
@@ -812,6 +874,7 @@ def main(argv=None):
                     f"{a['hits_ref']:,}",
                     f"{a['hits']:,}",
                     mr,
+                    ma,
                     bw,
                 )
     out.append(at.render(md))
@@ -819,6 +882,33 @@ def main(argv=None):
         out.append(
             "OpenCL bitwise = CPU: np.array_equal on every Hits array (t, object, primitive, u, v, normal).\n"
         )
+
+    ac = Table(
+        "t against float64 Moller-Trumbore on the library's own hit triangle (round one)",
+        [
+            "mesh",
+            "rays",
+            "library",
+            "max abs. error / bbox diagonal",
+            "median rel. error",
+            "max rel. error",
+        ],
+    )
+    for mi, mesh in enumerate(meshes):
+        for si, rays in enumerate(raysets[mi]):
+            for name in names:
+                e = accuracy.get((name, mi, si))
+                if e is not None:
+                    ac.add(
+                        mesh.name,
+                        rays.name,
+                        name,
+                        f"{e['max_abs']:.3g}",
+                        f"{e['median_rel']:.3g}",
+                        f"{e['max_rel']:.3g}",
+                    )
+    if accuracy:
+        out.append(ac.render(md))
 
     et = Table(
         f"Disagreements with {ref_name}, classified (different triangle, or same triangle with "
