@@ -58,8 +58,7 @@ class Mesh:
 
 def make_torus(n_triangles, major=1.0, minor=0.35):
     """A torus around the z axis as an nu x nv grid of quads, two triangles each, vertices shared
-    across the seams (nu = 2 nv, so the triangles are roughly equilateral-ish slivers of similar
-    size around both circles)."""
+    across the seams; nu = 2 nv, so the quads are of similar size around both circles."""
     nv = max(3, int(round(math.sqrt(n_triangles / 4.0))))
     nu = max(3, n_triangles // (2 * nv))
     i = np.arange(nu, dtype=np.float64)[:, None]
@@ -471,14 +470,32 @@ class Explainer:
         hit = prim >= 0
         tri = self.mesh.triangles[np.where(hit, prim, 0)]
         vx = self.mesh.vertices
-        t, u, v, w = intersect64(
-            o,
-            d,
-            vx[tri[:, 0]].astype(np.float64),
-            vx[tri[:, 1]].astype(np.float64),
-            vx[tri[:, 2]].astype(np.float64),
-        )
+        v0 = vx[tri[:, 0]].astype(np.float64)
+        v1 = vx[tri[:, 1]].astype(np.float64)
+        v2 = vx[tri[:, 2]].astype(np.float64)
+        t, u, v, w = intersect64(o, d, v0, v1, v2)
         bary_min = np.min(np.abs(np.stack([u, v, w], axis=1)), axis=1)
+        # How far float32 barycentrics can stray: Moller-Trumbore divides by
+        # det = d . (e1 x e2) = |e1 x e2| cos(theta), and its numerators carry rounding of the
+        # order of 2^-24 |o - v0| |e|; so the error grows with the distance over the triangle's
+        # size and with 1 / |cos(theta)| for rays that graze the triangle's plane.
+        n = np.cross(v1 - v0, v2 - v0)
+        n_len = np.linalg.norm(n, axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cos = np.abs(np.einsum("ij,ij->i", d, n)) / (n_len * np.linalg.norm(d, axis=1))
+            edge = np.max(
+                np.stack(
+                    [
+                        np.linalg.norm(v1 - v0, axis=1),
+                        np.linalg.norm(v2 - v1, axis=1),
+                        np.linalg.norm(v0 - v2, axis=1),
+                    ],
+                    axis=1,
+                ),
+                axis=1,
+            )
+            bound = 8.0 * 2.0**-24 * np.linalg.norm(o - v0, axis=1) * edge / (n_len * cos)
+        tol = np.maximum(self.edge_eps, np.nan_to_num(bound, nan=np.inf))
         nan = np.full(len(idx), np.nan)
         return {
             "hit": hit,
@@ -488,6 +505,9 @@ class Explainer:
             "v": np.where(hit, v, nan),
             "w": np.where(hit, w, nan),
             "bary_min": np.where(hit, bary_min, np.inf),
+            "cos": np.where(hit, cos, nan),
+            "tol": np.where(hit, tol, nan),
+            "near_edge": hit & (bary_min < tol),
         }
 
     def classify(self, ref, other, cap=1_000_000):
@@ -512,12 +532,16 @@ class Explainer:
                 shared |= a["tri"][:, i] == b["tri"][:, j]
         with np.errstate(invalid="ignore"):
             close = both & (np.abs(ta - tb) <= self.tie_rel * np.maximum(np.abs(ta), np.abs(tb)))
-        grazing = (a["bary_min"] < self.edge_eps) | (b["bary_min"] < self.edge_eps)
+        grazing = a["near_edge"] | b["near_edge"]
         cls = np.full(len(idx), 3, dtype=np.int8)  # other
         cls[~same_tri & grazing] = 1
         cls[~same_tri & close & shared & both] = 0
         cls[same_tri] = 2
         counts = {name: int(np.count_nonzero(cls == k)) for k, name in enumerate(self.CLASSES)}
+        # Rays that start (nearly) on the surface: there t is tiny, and its relative error large,
+        # while the absolute error stays far below the rounding of the coordinates.
+        diag = float(np.linalg.norm(self.mesh.hi - self.mesh.lo))
+        counts["short"] = int(np.count_nonzero((cls == 2) & (np.abs(ta) < 1e-3 * diag)))
         return {
             "total": total,
             "classified": len(idx),
@@ -555,6 +579,7 @@ class Explainer:
                     f" (vertices {int(g['tri'][n][0])},{int(g['tri'][n][1])},{int(g['tri'][n][2])})"
                     f" t={t}; float64 on that triangle: t={g['t64'][n]:.9g}"
                     f" u={g['u'][n]:.3g} v={g['v'][n]:.3g} 1-u-v={g['w'][n]:.3g}"
+                    f" |cos|={g['cos'][n]:.2g} edge tol={g['tol'][n]:.2g}"
                 )
         return out
 
@@ -633,7 +658,8 @@ def main(argv=None):
         "--edge-eps",
         type=float,
         default=1e-4,
-        help="a barycentric below this (in magnitude) marks a grazing/edge hit",
+        help="smallest barycentric tolerance of a grazing/edge hit (the float32 error scale "
+        "of the ray and triangle can raise it)",
     )
     ap.add_argument("--tie-rel", type=float, default=1e-6, help="relative t difference of a tie")
     ap.add_argument(
@@ -913,7 +939,9 @@ def main(argv=None):
     et = Table(
         f"Disagreements with {ref_name}, classified (different triangle, or same triangle with "
         f"t more than {args.precision_rel:g} relative apart)",
-        ["mesh", "rays", "library", "disagreeing"] + list(Explainer.CLASSES),
+        ["mesh", "rays", "library", "disagreeing"]
+        + list(Explainer.CLASSES)
+        + ["precision with t < 0.001 x bbox diagonal"],
     )
     for mi, mesh in enumerate(meshes):
         for si, rays in enumerate(raysets[mi]):
@@ -932,13 +960,16 @@ def main(argv=None):
                     rays.name,
                     name,
                     f"{res['total']:,}{note}",
-                    *(f"{res['counts'][c]:,}" for c in Explainer.CLASSES),
+                    *(f"{res['counts'][c]:,}" for c in (*Explainer.CLASSES, "short")),
                 )
     out.append(et.render(md))
     out.append(
         f"tie: both t within {args.tie_rel:g} relative and the triangles share a vertex; "
-        f"grazing/edge: a barycentric of either hit (recomputed in float64) below {args.edge_eps:g} "
-        f"in magnitude; precision: same triangle, t more than {args.precision_rel:g} relative apart; "
+        f"grazing/edge: a barycentric of either hit (recomputed in float64) smaller in magnitude "
+        f"than max({args.edge_eps:g}, 8 * 2^-24 * |o - v0| * longest edge / (|e1 x e2| * |cos|)), "
+        "the float32 barycentrics' error scale, which grows for distant and grazing rays (|cos| "
+        "between the ray and the triangle's normal); "
+        f"precision: same triangle, t more than {args.precision_rel:g} relative apart; "
         "other: the rest.\n"
     )
 

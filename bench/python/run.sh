@@ -20,13 +20,13 @@ if [[ ! -x "$venv/bin/python" ]]; then
   /usr/bin/python3 -m venv "$venv"
 fi
 py="$venv/bin/python"
-"$py" -m pip install --quiet --upgrade pip
-"$py" -m pip install --quiet -r "$here/requirements.txt"
+"$py" -m pip install --quiet --upgrade pip >&2
+"$py" -m pip install --quiet -r "$here/requirements.txt" >&2
 
 if [[ "${TWINRAY_SKIP_INSTALL:-0}" != 1 ]]; then
   if [[ -f "$src/pyproject.toml" ]]; then
     echo "run.sh: building and installing twinray from $src (takes minutes)" >&2
-    "$py" -m pip install --no-build-isolation "$src"
+    "$py" -m pip install --no-build-isolation "$src" >&2  # stdout stays the benchmark's
   else
     echo "run.sh: $src has no pyproject.toml; twinray's columns will be skipped" >&2
   fi
