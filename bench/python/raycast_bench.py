@@ -558,8 +558,16 @@ class Explainer:
         }
 
     def lines(self, res, k, ref_name, other_name):
+        """Up to k rays, taken from the classes in turn (other, grazing/edge, precision, tie),
+        so that the rare classes are shown too."""
+        per_class = [list(np.flatnonzero(res["cls"] == c)) for c in (3, 1, 2, 0)]
+        picked = []
+        while len(picked) < k and any(per_class):
+            for rows in per_class:
+                if rows and len(picked) < k:
+                    picked.append(rows.pop(0))
         out = []
-        for n in range(min(k, len(res["idx"]))):
+        for n in sorted(picked):
             i = res["idx"][n]
             o = self.rays.origins[i]
             d = self.rays.directions[i]
@@ -652,7 +660,8 @@ def main(argv=None):
         type=int,
         default=3,
         metavar="K",
-        help="print up to K disagreeing rays per comparator, mesh and ray set (default 3)",
+        help="print up to K disagreeing rays per comparator, mesh and ray set, "
+        "taking the classes in turn (default 3)",
     )
     ap.add_argument(
         "--edge-eps",
