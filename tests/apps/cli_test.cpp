@@ -55,7 +55,8 @@ const std::string kGoodScene = R"({
   "render": { "spp": 1, "max_depth": 2, "shadows": true, "glaze": true,
               "terms": ["ambient", "diffuse"] },
   "materials": {
-    "red": { "color": [1, 0, 0], "ka": 0.1, "kd": 0.7, "ks": 0.2, "shininess": 10, "glaze": 0.1 }
+    "red": { "color": [1, 0, 0], "ka": 0.1, "kd": 0.7, "ks": 0.2, "shininess": 10, "glaze": 0.1 },
+    "clear": { "glaze": 0.2, "transmission": 0.5, "ior": 1.3, "absorption": [0.1, 0.2, 0.3] }
   },
   "lights": [ { "type": "point", "position": [2, 2, 2], "intensity": 5, "color": [1, 1, 1] } ],
   "objects": [
@@ -101,7 +102,7 @@ std::vector<BadScene> bad_scenes() {
     { "type": "plane")",
             R"("material": "red" },,
     { "type": "plane")"),
-       "invalid JSON at line 13"},
+       "invalid JSON at line 14"},
       {edit("[0, 0, 5]", "[0, NaN, 5]"), "invalid JSON at line 4",
        "(near camera.position[1]): syntax error"},
       {"[1, 2, 3]", "(top level): must be an object, got an array of 3"},
@@ -128,6 +129,14 @@ std::vector<BadScene> bad_scenes() {
        "image.background: must be an array of 3 numbers, got an array of 2"},
       {edit(R"("background": [0, 0, 0])", R"("background": [0, 2, 0])"),
        "image.background[1]: must be in [0, 1], got 2"},
+      // glass
+      {edit(R"("transmission": 0.5,)", R"("transmission": 1.5,)"),
+       "materials.clear.transmission: must be in [0, 1], got 1.5"},
+      {edit(R"("transmission": 0.5,)", R"("transmission": 0.9,)"),
+       "materials.clear.transmission: glaze + transmission must be at most 1, got 0.2 + 0.9"},
+      {edit(R"("ior": 1.3,)", R"("ior": 0,)"), "materials.clear.ior: must be > 0, got 0"},
+      {edit(R"("absorption": [0.1, 0.2, 0.3])", R"("absorption": [0.1, -0.2, 0.3])"),
+       "materials.clear.absorption[1]: must be >= 0, got -0.2"},
       // camera
       {edit(R"("projection": "perspective")", R"("projection": "fisheye")"),
        "camera.projection: must be \"perspective\", \"orthographic\", got \"fisheye\""},

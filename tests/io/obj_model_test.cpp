@@ -50,7 +50,7 @@ const char* kMtl =
     "Ka 0.1 0.2 0.3\nKd 1 0.5 0\nKs 0 0 0\nNs 12\nillum 2\n"
     "map_Kd red.png\n"  // 7
     "newmtl shiny\n"    // 8
-    "Kd 0.2 0.2 0.2\nKs 0.6 0.6 0.9\nNs 200\nillum 3\n";
+    "Kd 0.2 0.2 0.2\nKs 0.6 0.6 0.9\nNs 200\nillum 3\nd 0.3\nNi 1.33\n";
 
 }  // namespace
 
@@ -100,6 +100,11 @@ TEST_CASE_TEMPLATE("MTL: materials map onto Blinn-Phong, per usemtl group, with 
   const Material<T>& shiny = model.materials[1];
   CHECK(shiny.ks == T((0.6 + 0.6 + 0.9) / 3));
   CHECK(shiny.glaze == shiny.ks);  // illum 3 with a non-zero Ks
+  // d 0.3: transmission 0.7, cut to 1 - glaze; Ni: the index.
+  CHECK(shiny.transmission == T(1) - shiny.glaze);
+  CHECK(shiny.ior == T(1.33));
+  CHECK(red.transmission == T(0));
+  CHECK(red.ior == T(1.5));
   CHECK(shiny.texture == -1);
   REQUIRE(model.textures.size() == 1);
   CHECK(model.textures[0].width == 2);

@@ -76,6 +76,16 @@ TEST_CASE("scene refusals name the object and the problem") {
   s.materials[0].glaze = 1.5f;
   CHECK(refusal([&] { validate(s); }) == "materials[0].glaze: must be in [0, 1], got 1.5");
   s = one_sphere();
+  s.materials[0].glaze = 0.5f;
+  s.materials[0].transmission = 0.75f;
+  CHECK(refusal([&] { validate(s); }) == "materials[0].transmission: must be in [0, 0.5], got 0.75");
+  s = one_sphere();
+  s.materials[0].ior = 0.f;
+  CHECK(refusal([&] { validate(s); }) == "materials[0].ior: must be > 0, got 0");
+  s = one_sphere();
+  s.materials[0].absorption.z = -1.f;
+  CHECK(refusal([&] { validate(s); }) == "materials[0].absorption[2]: must be >= 0, got -1");
+  s = one_sphere();
   s.add_light({{0, 0, 0}, -2.f, {1, 1, 1}});
   CHECK(refusal([&] { validate(s); }) == "lights[0].intensity: must be >= 0, got -2");
   s = one_sphere();

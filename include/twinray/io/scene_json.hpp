@@ -241,10 +241,10 @@ class SceneReader : public JsonReader<T> {
       mat.glaze = scalar(*v, key_path(path, "glaze"), 0.0, 1.0);
     if (const Json* v = optional(m, "transmission"))
       mat.transmission = scalar(*v, key_path(path, "transmission"), 0.0, 1.0);
-    if (mat.transmission > T(1) - mat.glaze)  // validate_material's test
+    if (mat.transmission > T(1) - mat.glaze)  // validate_material's test; both keys are given
       fail(key_path(path, "transmission"), "glaze + transmission must be at most 1, got " +
-                                               twinray::detail::format_number(mat.glaze) + " + " +
-                                               twinray::detail::format_number(mat.transmission));
+                                               show(*optional(m, "glaze")) + " + " +
+                                               show(*optional(m, "transmission")));
     if (const Json* v = optional(m, "ior"))
       mat.ior = scalar(*v, key_path(path, "ior"), 0.0, INFINITY, true);
     if (const Json* v = optional(m, "absorption"))
