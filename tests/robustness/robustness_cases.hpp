@@ -906,6 +906,75 @@ Figures case_mirrors(Ctx& ctx, T k) {
   return f;
 }
 
+// Glass: a slab of thickness h between two parallel planes, seen by an orthographic
+// camera at angle theta to its normal against a white background (no lights, no surface
+// terms). Every ray ends in the background, so each pixel is the slab's reflectance
+// plus transmittance, the sum of all its internal reflections:
+//   R + T = F + (1 - F)^2 (F tau^2 + tau) / (1 - F^2 tau^2),
+// F = the Fresnel reflectance at theta, tau = e^(-a h / cos theta_t) over one crossing.
+// A ray that hits the face it starts from (acne) adds an interface and a reflection; one
+// that slips through a face (a leak) drops one; both move the pixel by about F or more.
+// Tolerance 2^-8: what the renderer leaves in rays under its weight cutoff (2^-10) and
+// past max_depth, plus float rounding. Scale and offset as the acne sweep; `thin` makes
+// the slab 1e-3 of the scene's size (its thickness taken as rounded to T).
+template <class T>
+Figures case_glass_slab(Ctx& ctx, double scale, double offset_sizes, double degrees, bool thin) {
+  const double h = (thin ? 1e-3 : 0.5) * scale;
+  const V3<T> off = far_direction<T>() * T(scale * offset_sizes);
+  twinray::Scene<T> scene;
+  scene.background = V3<T>(1, 1, 1);
+  twinray::Material<T> glass;
+  glass.ka = glass.kd = glass.ks = T(0);
+  glass.transmission = T(1);
+  glass.ior = T(1.5);
+  glass.absorption = V3<T>(T(0.2 / scale), T(0.8 / scale), T(2 / scale));
+  int mat = scene.add_material(glass);
+  const V3<T> n(0, 0, 1);
+  const V3<T> front = off, back = off - n * T(h);
+  scene.add(twinray::Plane<T>{front, n, mat});
+  scene.add(twinray::Plane<T>{back, -n, mat});
+  // The thickness the renderer sees: the two faces as rounded to T (far from the origin
+  // a float sheet 1e-3 of the scene thick is only a few ulps of its position).
+  const LD thickness = LD(front.z) - LD(back.z);
+  const double a = degrees * M_PI / 180;
+  twinray::Camera<T> cam;
+  cam.projection = twinray::Projection::Orthographic;
+  cam.position = off + V3<T>(T(std::sin(a)), 0, T(std::cos(a))) * T(4 * scale);
+  cam.look_at = off;
+  cam.up = V3<T>(0, 1, 0);
+  cam.viewplane_height = T(scale);
+  cam.width = cam.height = 12;
+  twinray::RenderOptions o;
+  o.max_depth = 32;
+  twinray::Image<T> img = render(ctx, scene, cam, o);
+  // The closed form from the directions the renderer used (binary128).
+  auto p = params_of(scene, cam);
+  RayT<T> r = camera_ray<T>(p, 0, 0);
+  const LD cos_i = -LD(r.d.z) / qsqrt(dot_ld(VL(r.d), VL(r.d)));
+  const LD eta = LD(glass.ior);
+  const LD sin2_t = (1 - cos_i * cos_i) / (eta * eta), cos_t = qsqrt(1 - sin2_t);
+  const LD rpar = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+  const LD rper = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+  const LD f_ = (rpar * rpar + rper * rper) / 2;
+  Figures f;
+  f.wrong = 0;
+  f.rel_err_max = 0;
+  for (int y = 0; y < cam.height; ++y)
+    for (int x = 0; x < cam.width; ++x) {
+      for (int ch = 0; ch < 3; ++ch) {
+        const LD tau = expq(-LD(glass.absorption[ch]) * thickness / cos_t);
+        const LD want =
+            f_ + (1 - f_) * (1 - f_) * (f_ * tau * tau + tau) / (1 - f_ * f_ * tau * tau);
+        const LD err = qabs(LD(img.pixel(x, y)[ch]) - want);
+        f.rel_err_max = std::max(f.rel_err_max, double(err / want));
+        if (err > LD(1) / 256) ++f.wrong;
+      }
+      ++f.samples;
+    }
+  f.nonfinite = count_nonfinite(img);
+  return f;
+}
+
 // Hit-distance error sweep (device code on the host; the depth AOVs above show the
 // OpenCL side computes the same bits): random rays against one primitive at each scale
 // of the sweep and each offset, |t - t_ref| in ulps of t_ref, t_ref in binary128

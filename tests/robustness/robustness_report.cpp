@@ -102,6 +102,16 @@ void all_cases() {
                 << ": max relative error " << f.rel_err_max << " u\n";
       return f;
     });
+  run_case<T>("glass slabs and thin sheets, 0..80 degrees, scale sweep", [](rb::Ctx& c) {
+    rb::Figures f;
+    for (double s : rb::sweep_scales())
+      for (double off : rb::sweep_offsets())
+        for (double degrees : {0.0, 40.0, 80.0})
+          for (bool thin : {false, true}) f.add(rb::case_glass_slab<T>(c, s, off, degrees, thin));
+    std::cerr << "  glass " << twinray::device::Code<T>::name << ": largest relative error "
+              << f.rel_err_max << "\n";
+    return f;
+  });
   for (rb::Prim p : {rb::Prim::Sphere, rb::Prim::Triangle, rb::Prim::Plane}) {
     rb::Figures f = rb::case_t_sweep<T>(p, 2000);
     row<T>(std::string("t sweep, random rays, ") + rb::prim_name(p), rb::Backend::Cpu, f);

@@ -161,6 +161,26 @@ TEST_CASE_TEMPLATE("two facing mirrors at depth 64 match the closed-form geometr
       [](const rb::Figures& f) { CHECK(f.wrong == 0); });
 }
 
+TEST_CASE_TEMPLATE(
+    "glass: slabs and thin sheets at 0..80 degrees show their closed-form reflectance plus "
+    "transmittance, scale 1e-4..1e5, offset 0..1e4 sizes",
+    T, float, double) {
+  on_backends(
+      [](rb::Ctx& c) {
+        rb::Figures f;
+        for (double s : rb::sweep_scales())
+          for (double off : rb::sweep_offsets())
+            for (double degrees : {0.0, 40.0, 80.0})
+              for (bool thin : {false, true})
+                f.add(rb::case_glass_slab<T>(c, s, off, degrees, thin));
+        return f;
+      },
+      [](const rb::Figures& f) {
+        MESSAGE("glass slabs: largest relative error ", f.rel_err_max);
+        CHECK(f.wrong == 0);
+      });
+}
+
 TEST_CASE_TEMPLATE("hit-distance error sweep in ulps against long double, scale 1e-4..1e5", T,
                    float, double) {
   for (rb::Prim p : {rb::Prim::Sphere, rb::Prim::Triangle, rb::Prim::Plane}) {

@@ -6,7 +6,7 @@
  * closed mesh or a sphere is a solid of its material; objects are not nested (a glass
  * inside a glass is two interfaces with air), which makes touching and nested objects
  * behave predictably. Absorption is applied to the segment that ends where a ray leaves
- * the material (Beer-Lambert over its length).
+ * the material (Beer-Lambert over its length, from the point where it entered).
  *
  * Only + - * / and sqrt, so both backends give the same bits (prelude.h). */
 
@@ -61,12 +61,14 @@ TR_FN real tr_exp_neg(real x) {
 }
 
 /* What survives of a path's weight over the segment that ended at `hit`, seen along
- * unit direction d: e^(-absorption t) per channel where the segment ran inside a
- * transmissive material (the ray leaves it here: d.n > 0), else exactly 1. */
-TR_FN vec3 tr_absorption(const TrSceneRef* s, const TrHit* hit, vec3 d) {
+ * unit direction d, `length` long (from the surface point the ray left to hit->p, not
+ * from its offset origin: far from the origin the offset is many ulps of the position,
+ * a sizeable part of a thin slab): e^(-absorption length) per channel where the segment
+ * ran inside a transmissive material (the ray leaves it here: d.n > 0), else exactly 1. */
+TR_FN vec3 tr_absorption(const TrSceneRef* s, const TrHit* hit, vec3 d, real length) {
   TR_GLOBAL const TrMaterial* m = &s->materials[hit->material];
   if (!(m->transmission > TR_R(0.0)) || !(tr_dot(d, hit->n) > TR_R(0.0)))
     return TR_VEC3(TR_R(1.0), TR_R(1.0), TR_R(1.0));
-  return TR_VEC3(tr_exp_neg(-m->absorb_r * hit->t), tr_exp_neg(-m->absorb_g * hit->t),
-                 tr_exp_neg(-m->absorb_b * hit->t));
+  return TR_VEC3(tr_exp_neg(-m->absorb_r * length), tr_exp_neg(-m->absorb_g * length),
+                 tr_exp_neg(-m->absorb_b * length));
 }

@@ -16,6 +16,7 @@
 TR_FN TrPath tr_path_start(const TrSceneRef* s, TrRay ray) {
   TrPath path;
   path.ray = ray;
+  path.from = ray.o;
   path.color = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
   path.weight = TR_VEC3(TR_R(1.0), TR_R(1.0), TR_R(1.0));
   path.segments_left =
@@ -23,12 +24,14 @@ TR_FN TrPath tr_path_start(const TrSceneRef* s, TrRay ray) {
   return path;
 }
 
-/* Ends the path's current ray: the path takes its last pending ray, if it has one. */
-TR_FN_INLINE void tr_path_next(TrPath* path, TrRayStack* stack) {
+/* Ends the path's current ray: the path takes its last pending ray, if it has one (only
+ * glass pushes any: the stack is not read in scenes without it). */
+TR_FN_INLINE void tr_path_next(const TrSceneRef* s, TrPath* path, TrRayStack* stack) {
   path->segments_left = 0;
-  if (!TR_HAS(TR_F_DIELECTRIC) || stack->n == 0) return;
+  if (!tr_use(s, TR_F_DIELECTRIC) || stack->n == 0) return;
   --stack->n;
   path->ray = stack->ray[stack->n].ray;
+  path->from = stack->ray[stack->n].from;
   path->weight = stack->ray[stack->n].weight;
   path->segments_left = stack->ray[stack->n].segments_left;
 }
@@ -49,7 +52,7 @@ TR_FN void tr_path_split(const TrSceneRef* s, TrPath* path, TrRayStack* stack, c
   TR_GLOBAL const TrMaterial* m = &s->materials[hit->material];
   vec3 d = path->ray.d;
   if (path->segments_left <= 0) {
-    tr_path_next(path, stack);
+    tr_path_next(s, path, stack);
     return;
   }
   real eta = tr_dot(d, hit->n) < TR_R(0.0) ? m->ior : TR_R(1.0) / m->ior;
@@ -68,17 +71,20 @@ TR_FN void tr_path_split(const TrSceneRef* s, TrPath* path, TrRayStack* stack, c
   if (refract) {
     if (reflect && stack->n < TR_RAY_STACK) {
       stack->ray[stack->n].ray = tr_ray_from_hit(hit, mirrored);
+      stack->ray[stack->n].from = hit->p;
       stack->ray[stack->n].weight = reflected_weight;
       stack->ray[stack->n].segments_left = path->segments_left;
       ++stack->n;
     }
     path->ray = tr_ray_from_hit(hit, tr_refract(d, n, cos_i, eta, cos_t));
+    path->from = hit->p;
     path->weight = refracted_weight;
   } else if (reflect) {
     path->ray = tr_ray_from_hit(hit, mirrored);
+    path->from = hit->p;
     path->weight = reflected_weight;
   } else {
-    tr_path_next(path, stack);
+    tr_path_next(s, path, stack);
   }
 }
 
@@ -92,11 +98,12 @@ TR_FN void tr_path_step(const TrSceneRef* s, TrPath* path, TrRayStack* stack, in
   if (!found) {
     TR_GLOBAL const TrParams* p = s->params;
     path->color = path->color + TR_VEC3(p->bg_r, p->bg_g, p->bg_b) * path->weight;
-    tr_path_next(path, stack);
+    tr_path_next(s, path, stack);
     return;
   }
   vec3 d = path->ray.d;
-  if (tr_use(s, TR_F_DIELECTRIC)) path->weight = path->weight * tr_absorption(s, hit, d);
+  if (tr_use(s, TR_F_DIELECTRIC))
+    path->weight = path->weight * tr_absorption(s, hit, d, tr_length(hit->p - path->from));
   path->color = path->color + shaded * path->weight;
   if (tr_use(s, TR_F_DIELECTRIC) && s->materials[hit->material].transmission > TR_R(0.0)) {
     tr_path_split(s, path, stack, hit);
@@ -104,13 +111,14 @@ TR_FN void tr_path_step(const TrSceneRef* s, TrPath* path, TrRayStack* stack, in
   }
   real glaze = TR_HAS(TR_F_GLAZE) ? s->materials[hit->material].glaze : TR_R(0.0);
   if (!(glaze > TR_R(0.0)) || !tr_use(s, TR_F_GLAZE)) {
-    tr_path_next(path, stack);
+    tr_path_next(s, path, stack);
     return;
   }
   vec3 n = hit->ns; /* the shading normal mirrors; the geometric one offsets */
   vec3 mirrored = tr_normalize(d - n * (TR_R(2.0) * tr_dot(d, n)));
   path->ray.o = tr_offset_ray_origin(hit->p, hit->perr, hit->n, mirrored);
   path->ray.d = mirrored;
+  path->from = hit->p;
   path->weight = path->weight * glaze;
 }
 
@@ -208,7 +216,7 @@ TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, TrRayStack* s
   for (int j = 0; j < n; ++j) colors[j] = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
   for (int i = 0; i < p->spp; ++i) {
     tr_block_camera_paths(s, b, x0, y0, w, h, i);
-    if (TR_HAS(TR_F_DIELECTRIC))
+    if (tr_use(s, TR_F_DIELECTRIC))
       for (int j = 0; j < n; ++j) stacks[j].n = 0;
     for (;;) {
       int m = 0;

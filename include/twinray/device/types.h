@@ -261,6 +261,8 @@ typedef struct TrSurface {
  * absorption) factors passed, and how many segments it may still take (0: done). */
 typedef struct TrPath {
   TrRay ray;
+  vec3 from; /* the surface point the ray left (its origin before the offset): glass
+              * absorbs over the distance from it to the point where the ray leaves */
   vec3 color;
   vec3 weight;
   int segments_left;
@@ -272,7 +274,7 @@ typedef struct TrPath {
 #define TR_RAY_STACK 8
 typedef struct TrPendingRay {
   TrRay ray;
-  vec3 weight;
+  vec3 from, weight;
   int segments_left;
 } TrPendingRay;
 typedef struct TrRayStack {
