@@ -9,7 +9,7 @@ from conftest import SCENES, read_pfm, run_cli
 
 
 @pytest.mark.parametrize("precision", ["float", "double"])
-@pytest.mark.parametrize("name", ["demo.json", "placed.json", "models.json"])
+@pytest.mark.parametrize("name", ["demo.json", "placed.json", "models.json", "glass.json"])
 def test_render_equals_command(tmp_path, name, precision):
     out = tmp_path / "cli.pfm"
     run_cli("render", str(SCENES / name), "-o", str(out), "--backend", "cpu", "--precision",

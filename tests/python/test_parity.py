@@ -18,7 +18,7 @@ def both(scene, precision):
 
 
 @pytest.mark.parametrize("precision", PRECISIONS)
-@pytest.mark.parametrize("name", ["demo.json", "placed.json", "models.json"])
+@pytest.mark.parametrize("name", ["demo.json", "placed.json", "models.json", "glass.json"])
 def test_render_and_every_aov_equal(name, precision):
     scene = twinray.Scene.load(SCENES / name)
     scene.camera.width, scene.camera.height = 160, 120

@@ -44,6 +44,9 @@ def build_in_code(v, t):
     m[:3, :3] = rotation([1, 2, 0.5], ANGLE) * 0.8
     m[:3, 3] = [0.3, -0.1, 0.2]
     scene.add_obj(OBJ, transform=m)  # its own MTL material and texture
+    glass = scene.add_material(color=(1, 1, 1), ka=0, kd=0, ks=0.9, shininess=300, glaze=0.05,
+                               transmission=0.95, ior=1.45, absorption=(0.3, 1.2, 3.0))
+    scene.add_sphere((-0.4, 0.2, 1.2), 0.45, material=glass)
     scene.add_light((-3, 5, 4), intensity=30, color=(1, 0.9, 0.8))
     scene.add_light((3, 4, 2), intensity=12)
     scene.camera = twinray.Camera((0, 2.5, 5), (0, 0, 0), (0, 1, 0), viewplane_height=3.2,
@@ -66,6 +69,9 @@ def as_json(path, v, t):
                      "shininess": 40},
             "mirror": {"color": [0.9, 0.9, 0.9], "ka": 0.05, "kd": 0.3, "ks": 0.6,
                        "shininess": 80, "glaze": 0.5},
+            "glass": {"color": [1, 1, 1], "ka": 0, "kd": 0, "ks": 0.9, "shininess": 300,
+                      "glaze": 0.05, "transmission": 0.95, "ior": 1.45,
+                      "absorption": [0.3, 1.2, 3.0]},
         },
         "lights": [
             {"type": "point", "position": [-3, 5, 4], "intensity": 30, "color": [1, 0.9, 0.8]},
@@ -82,6 +88,7 @@ def as_json(path, v, t):
             {"type": "mesh", "obj": str(OBJ), "material": "mirror",
              "transform": {"matrix": np.eye(4).tolist()}},
             {"type": "mesh", "obj": str(OBJ), "transform": {"matrix": matrix.tolist()}},
+            {"type": "sphere", "center": [-0.4, 0.2, 1.2], "radius": 0.45, "material": "glass"},
         ],
     }
     path.write_text(json.dumps(doc))
@@ -102,7 +109,7 @@ def test_code_equals_json(tmp_path, precision):
     image = a.render(spp=2)
     assert image.std() > 0.02
     # Every object is seen.
-    assert set(np.unique(a.render(aov="object"))) >= {0, 1, 2, 3, 4, 5}
+    assert set(np.unique(a.render(aov="object"))) >= {0, 1, 2, 3, 4, 5, 6}
     rng = np.random.default_rng(3)
     o = rng.uniform(-2, 2, (5000, 3))
     d = rng.normal(size=(5000, 3))
