@@ -65,7 +65,8 @@ __kernel void tr_kernel_render(TR_SCENE_ARGS, __global real* out) {
 __kernel TR_WIDE_VECTORS void tr_kernel_render_blocks(TR_SCENE_ARGS, __global real* out) {
   TrSceneRef s = tr_scene_ref(TR_SCENE_ARG_NAMES);
   TrBlockScratch scratch;
-  tr_render_block_at(&s, &scratch, (int)get_global_id(0), out);
+  TrRayStack stacks[TR_HAS(TR_F_DIELECTRIC) ? TR_BLOCK_SIDE * TR_BLOCK_SIDE : 1];
+  tr_render_block_at(&s, &scratch, stacks, (int)get_global_id(0), out);
 }
 
 #endif

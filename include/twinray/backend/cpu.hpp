@@ -17,6 +17,7 @@
 #include <chrono>
 #include <memory>
 #include <string>
+#include <array>
 #include <thread>
 #include <type_traits>
 #include <vector>
@@ -216,9 +217,12 @@ class CpuBackend final : public RenderBackend<T> {
       static_assert(TR_BLOCK_SIDE * TR_BLOCK_SIDE <= TR_PACKET_MAX, "a block is one packet");
       // The block kernel's steps (tr_render_block_at), a tile of blocks at a time per
       // thread.
+      using RayStacks =
+          std::array<typename device::Code<T>::CpuRayStack, TR_BLOCK_SIDE * TR_BLOCK_SIDE>;
       parallel_for(K::tr_block_count(&p), TR_TILE_BLOCKS * TR_TILE_BLOCKS, [&](int index) {
         thread_local Scratch scratch;
-        K::tr_render_block_at(&scene, &scratch, index, image.rgb.data());
+        thread_local RayStacks stacks;  // read only where glass is in the scene
+        K::tr_render_block_at(&scene, &scratch, stacks.data(), index, image.rgb.data());
       });
       return;
     }

@@ -180,6 +180,7 @@ struct Code<float> {
   template <unsigned Features>
   using CpuKernel = f32_cpu::Kernel<Features>;
   using CpuBlockScratch = f32_cpu::TrBlockScratch;
+  using CpuRayStack = f32_cpu::TrRayStack;
   using CpuVec3 = f32_cpu::vec3;
   static constexpr const char* name = "float";
 };
@@ -210,6 +211,7 @@ struct Code<double> {
   template <unsigned Features>
   using CpuKernel = f64_cpu::Kernel<Features>;
   using CpuBlockScratch = f64_cpu::TrBlockScratch;
+  using CpuRayStack = f64_cpu::TrRayStack;
   using CpuVec3 = f64_cpu::vec3;
   static constexpr const char* name = "double";
 };

@@ -376,8 +376,11 @@ TR_FN_INLINE int tr_block_count(TR_GLOBAL const TrParams* p) {
 /* Renders the block at position `index` (tr_tiled_block's order) of the frame's
  * rectangle into out, rect_w x rect_h pixels (tr_store_rgb); nothing where index is
  * past the last block. One work-item of the block kernel, one step of the CPU
- * backend's loop over blocks. */
-TR_FN void tr_render_block_at(const TrSceneRef* s, TrBlockScratch* b, int index,
+ * backend's loop over blocks. stacks: the pending rays of each of the block's paths,
+ * TR_BLOCK_SIDE^2 of them where glass is compiled in (else one, never read): the
+ * caller's, so that the CPU's threads keep theirs from block to block instead of
+ * making a frame of 29 KB (float) for every block. */
+TR_FN void tr_render_block_at(const TrSceneRef* s, TrBlockScratch* b, TrRayStack* stacks, int index,
                               TR_GLOBAL real* out) {
   TR_GLOBAL const TrParams* p = s->params;
   if (index >= tr_block_count(p)) return;
@@ -387,9 +390,6 @@ TR_FN void tr_render_block_at(const TrSceneRef* s, TrBlockScratch* b, int index,
   int w = p->rect_w - x < TR_BLOCK_SIDE ? p->rect_w - x : TR_BLOCK_SIDE;
   int h = p->rect_h - y < TR_BLOCK_SIDE ? p->rect_h - y : TR_BLOCK_SIDE;
   vec3 colors[TR_BLOCK_SIDE * TR_BLOCK_SIDE];
-  /* Each path's pending rays, where glass can split paths (else one unused stack). */
-  TrRayStack stacks[TR_HAS(TR_F_DIELECTRIC) ? TR_BLOCK_SIDE * TR_BLOCK_SIDE : 1];
-  stacks[0].n = 0;
   tr_render_block(s, b, stacks, p->rect_x + x, p->rect_y + y, w, h, colors);
   for (int k = 0; k < w * h; ++k) tr_store_rgb(out, p->rect_w, x + k % w, y + k / w, colors[k]);
 }
