@@ -78,7 +78,8 @@ TEST_CASE("scene refusals name the object and the problem") {
   s = one_sphere();
   s.materials[0].glaze = 0.5f;
   s.materials[0].transmission = 0.75f;
-  CHECK(refusal([&] { validate(s); }) == "materials[0].transmission: must be in [0, 0.5], got 0.75");
+  CHECK(refusal([&] { validate(s); }) ==
+        "materials[0].transmission: must be in [0, 0.5], got 0.75");
   s = one_sphere();
   s.materials[0].ior = 0.f;
   CHECK(refusal([&] { validate(s); }) == "materials[0].ior: must be > 0, got 0");
