@@ -71,3 +71,19 @@ function(twinray_cpu_instances name)
   target_compile_definitions(${name} PUBLIC TWINRAY_CPU_BACKEND_EXTERN=1)
   twinray_cpu_backend_options(${name} ${ARGN})
 endfunction()
+
+# The twinray command and the Python module are built for the machine that builds them,
+# as the benchmarks are: parity holds, since the twinray target keeps -ffp-contract=off,
+# and the ISA tests show the same bits from SSE2, AVX2 and AVX-512 builds. A package or
+# wheel for other machines turns it off. Library consumers choose their own flags.
+option(TWINRAY_NATIVE "Build the twinray command and the Python module with -march=native" ON)
+
+# twinray_program_flags(VAR): the compile options of those programs, TWINRAY_WARNINGS and,
+# with TWINRAY_NATIVE, -march=native; for their sources and their twinray_cpu_instances().
+function(twinray_program_flags out)
+  set(flags ${TWINRAY_WARNINGS})
+  if(TWINRAY_NATIVE AND CMAKE_CXX_COMPILER_ID MATCHES "GNU|Clang")
+    list(APPEND flags -march=native)
+  endif()
+  set(${out} ${flags} PARENT_SCOPE)
+endfunction()

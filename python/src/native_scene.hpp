@@ -110,11 +110,9 @@ class NativeScene {
   // An object whose material is -1 takes the scene's default material (Material{}),
   // added with the first such object that is valid.
   int add_object(Object<double> object, std::optional<Transform> transform) {
-    const bool new_default =
-        std::visit([](const auto& o) { return o.material; }, object) == -1 && default_material_ < 0;
-    if (std::visit([](const auto& o) { return o.material; }, object) == -1)
-      std::visit([&](auto& o) { o.material = new_default ? int(materials_) : default_material_; },
-                 object);
+    int& material = std::visit([](auto& o) -> int& { return o.material; }, object);
+    const bool new_default = material == -1 && default_material_ < 0;
+    if (material == -1) material = new_default ? int(materials_) : default_material_;
     twinray::validate_object(object, objects_, materials_ + (new_default ? 1 : 0));
     if (transform) {  // a transform a sphere cannot take, or a result out of range
       Object<double> placed = object;
