@@ -178,6 +178,7 @@ struct Code<float> {
   template <unsigned Features>
   using CpuKernel = f32_cpu::Kernel<Features>;
   using CpuBlockScratch = f32_cpu::TrBlockScratch;
+  using CpuQueryPacket = f32_cpu::TrQueryPacket;
   using CpuVec3 = f32_cpu::vec3;
   static constexpr const char* name = "float";
 };
@@ -206,6 +207,7 @@ struct Code<double> {
   template <unsigned Features>
   using CpuKernel = f64_cpu::Kernel<Features>;
   using CpuBlockScratch = f64_cpu::TrBlockScratch;
+  using CpuQueryPacket = f64_cpu::TrQueryPacket;
   using CpuVec3 = f64_cpu::vec3;
   static constexpr const char* name = "double";
 };
