@@ -483,7 +483,9 @@ TR_FN_INLINE TrBoxRay tr_packet_box_ray(const TrRayPacket* pk, int r) {
  * packet's entry bound (closest hit), or in bit order (any hit): tr_inner_order.
  * Bit order is the collapse's left to right; for shadow rays, nearest first took 1.08-1.10
  * times as long on the benchmark scenes, and the best order depends on where the light
- * is (docs/performance.md). */
+ * is (docs/performance.md). With `query` 1 (a constant; q the rays' tmin and mask) the
+ * leaves take hits as a ray query's walk does (tr_packet_leaf), and the answers are
+ * tr_bvh_walk_query's; the renderer passes 0 and a null q. */
 TR_FN_INLINE void tr_packet_walk_masked(const TrSceneRef* s, TrRayPacket* pk, tr_mask64 active,
                                         int any_hit, int W, int query, const TrQueryLanes* q) {
   if (s->params->n_bvh_nodes <= 0 || active == 0) return;

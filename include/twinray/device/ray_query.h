@@ -1,9 +1,10 @@
 /* Ray queries on the user's own rays (docs/ray-queries.md): the closest hit
  * (tr_query_intersect) and whether anything is hit (tr_query_occluded) for one
  * TrQueryRay, through the same walk the renderer's rays take (bvh_traverse.h) with the
- * query's interval [tmin, tmax] and mask. The CPU backend calls these functions in
- * C++, the query kernels of kernels/render.cl in OpenCL C: the same text, the same
- * bits.
+ * query's interval [tmin, tmax] and mask, or for the CPU backend's batches through the
+ * renderer's packet walk where rays run together (tr_query_intersect_rays, below). The
+ * CPU backend calls these functions in C++, the query kernels of kernels/render.cl in
+ * OpenCL C: the same text, the same bits.
  *
  * The closest hit is the smallest (t, object, primitive) with t > 0 in [tmin, tmax]
  * (tr_query_precedes), so no batch size, ray order, thread count, BVH width, ISA or
