@@ -7,6 +7,7 @@
 // its own rule for when: device/prelude.h, TR_LANE_GROUP_MIN_RAYS); the program also
 // says whether the packets' answers are the single-ray walk's.
 #include <cstdio>
+#include <variant>
 #include <vector>
 
 #include <twinray/backend/cpu.hpp>
@@ -15,7 +16,10 @@
 
 template <class T>
 void run(const char* name) {
-  const twinray::Scene<T> s = query_test::mixed_scene<T>(11u);
+  // Masks on the objects (k % 4 == 3: 2, else 1), and on the camera's rays below.
+  twinray::Scene<T> s = query_test::mixed_scene<T>(11u);
+  for (size_t k = 0; k < s.objects.size(); ++k)
+    std::visit([&](auto& o) { o.mask = k % 4 == 3 ? 2u : 1u; }, s.objects[k]);
   auto rays = query_test::random_rays<T>(30000, 3u, true);
   for (int j = 0; j < 90; ++j)
     for (int i = 0; i < 110; ++i) {
@@ -24,6 +28,7 @@ void run(const char* name) {
                                     query_test::vec3<T>(x - 8, y - 9, T(-16)));
       r.tmin = T((i + j) % 4) * T(0.125);
       r.tmax = (i * j) % 3 == 0 ? T(INFINITY) : r.tmin + T(0.5);
+      r.mask = (i / 5 + j) % 3 == 0 ? 2u : 0xffffffffu;
       rays.push_back(r);
     }
   for (int width : {2, 4, 8}) {
