@@ -97,22 +97,28 @@ inline int query_grouping(QueryWalk walk) {
   return walk == QueryWalk::PacketsInOrder ? 0 : walk == QueryWalk::PacketsByOctant ? 1 : 2;
 }
 
-// Calls chunk(kernel, ref, scratch, begin, end) for consecutive ranges of the n rays of
-// a query against `scene`, on this thread and parallel_for's: `kernel` is a null pointer
-// of the CPU kernel type the scene's features pick (kQuerySpecializedFeatures), `ref`
-// the device code's view of the scene, `scratch` this thread's packet. Returns the sum
-// of chunk's results.
-template <class T, class Chunk>
-size_t for_each_query_chunk(const PackedScene<T>& scene, size_t n, Chunk&& chunk) {
+// Answers the n rays of a query against `scene`, on this thread and parallel_for's, in
+// chunks: for each ray, one(kernel, ref, i) where `walk` is RayByRay, else for each
+// chunk packets(kernel, ref, scratch, begin, end), which returns how many rays went
+// through the packet walk: `kernel` is a null pointer of the CPU kernel type the
+// scene's features pick (kQuerySpecializedFeatures), `ref` the device code's view of the
+// scene, `scratch` this thread's packet. Returns the sum of packets' results.
+template <class T, class One, class Packets>
+size_t for_each_query_chunk(const PackedScene<T>& scene, size_t n, QueryWalk walk, One&& one,
+                            Packets&& packets) {
   const auto params = query_params(scene.summary());
   const auto ref = scene_ref<T>(scene, &params, nullptr);
   std::atomic<size_t> total{0};
   with_features_of<kQuerySpecializedFeatures>(scene.features, [&](auto features) {
     using K = typename device::Code<T>::template CpuKernel<decltype(features)::value>;
     for_each_ray_chunk(n, [&](size_t begin, size_t end) {
+      if (walk == QueryWalk::RayByRay) {
+        for (size_t i = begin; i < end; ++i) one(static_cast<K*>(nullptr), ref, i);
+        return;
+      }
       thread_local typename device::Code<T>::CpuQueryPacket scratch;
-      const size_t walked = chunk(static_cast<K*>(nullptr), ref, &scratch, begin, end);
-      if (walked != 0) total.fetch_add(walked, std::memory_order_relaxed);
+      const int walked = packets(static_cast<K*>(nullptr), ref, &scratch, begin, end);
+      if (walked != 0) total.fetch_add(static_cast<size_t>(walked), std::memory_order_relaxed);
     });
   });
   return total.load();
@@ -125,20 +131,17 @@ template <class T>
 size_t query_intersect(const PackedScene<T>& scene, const Ray<T>* rays, size_t n, Hit<T>* hits,
                        unsigned extras, HitExtra<T>* extra_out,
                        QueryWalk walk = QueryWalk::Packets) {
+  const int flags = static_cast<int>(extras);
   return for_each_query_chunk(
-      scene, n,
-      [&](auto kernel, const auto& ref, auto* scratch, size_t begin, size_t end) -> size_t {
-        using K = std::remove_pointer_t<decltype(kernel)>;
-        if (walk == QueryWalk::RayByRay) {
-          for (size_t i = begin; i < end; ++i)
-            K::tr_query_intersect(&ref, &rays[i], &hits[i], extra_out ? &extra_out[i] : nullptr,
-                                  static_cast<int>(extras));
-          return 0;
-        }
-        return static_cast<size_t>(
-            K::tr_query_intersect_rays(&ref, scratch, &rays[begin], static_cast<int>(end - begin),
-                                       &hits[begin], extra_out ? &extra_out[begin] : nullptr,
-                                       static_cast<int>(extras), query_grouping(walk)));
+      scene, n, walk,
+      [&](auto kernel, const auto& ref, size_t i) {
+        std::remove_pointer_t<decltype(kernel)>::tr_query_intersect(
+            &ref, &rays[i], &hits[i], extra_out ? &extra_out[i] : nullptr, flags);
+      },
+      [&](auto kernel, const auto& ref, auto* scratch, size_t begin, size_t end) {
+        return std::remove_pointer_t<decltype(kernel)>::tr_query_intersect_rays(
+            &ref, scratch, &rays[begin], static_cast<int>(end - begin), &hits[begin],
+            extra_out ? &extra_out[begin] : nullptr, flags, query_grouping(walk));
       });
 }
 
@@ -148,17 +151,15 @@ template <class T>
 size_t query_occluded(const PackedScene<T>& scene, const Ray<T>* rays, size_t n, uint8_t* blocked,
                       QueryWalk walk = QueryWalk::Packets) {
   return for_each_query_chunk(
-      scene, n,
-      [&](auto kernel, const auto& ref, auto* scratch, size_t begin, size_t end) -> size_t {
-        using K = std::remove_pointer_t<decltype(kernel)>;
-        if (walk == QueryWalk::RayByRay) {
-          for (size_t i = begin; i < end; ++i)
-            blocked[i] = static_cast<uint8_t>(K::tr_query_occluded(&ref, &rays[i]) ? 1 : 0);
-          return 0;
-        }
-        return static_cast<size_t>(
-            K::tr_query_occluded_rays(&ref, scratch, &rays[begin], static_cast<int>(end - begin),
-                                      &blocked[begin], query_grouping(walk)));
+      scene, n, walk,
+      [&](auto kernel, const auto& ref, size_t i) {
+        blocked[i] = static_cast<uint8_t>(
+            std::remove_pointer_t<decltype(kernel)>::tr_query_occluded(&ref, &rays[i]) ? 1 : 0);
+      },
+      [&](auto kernel, const auto& ref, auto* scratch, size_t begin, size_t end) {
+        return std::remove_pointer_t<decltype(kernel)>::tr_query_occluded_rays(
+            &ref, scratch, &rays[begin], static_cast<int>(end - begin), &blocked[begin],
+            query_grouping(walk));
       });
 }
 

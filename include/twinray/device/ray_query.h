@@ -217,14 +217,15 @@ TR_FN int tr_query_occluded(const TrSceneRef* s, TR_GLOBAL const TrQueryRay* in)
  * work-item). A batch is taken in runs of TR_QUERY_RUN rays, whose valid rays with no
  * zero component of direction are walked TR_PACKET_MAX at a time through the
  * renderer's packet walk (bvh_packet.h, tr_packet_walk_masked) where their directions
- * share their signs (tr_packet_begin), the others one by one. Packets are made of
- * consecutive rays; in a run where most rays start where the ray before them does
- * (several rays from each point, as ambient occlusion casts them), of the rays of one
- * octant of direction (the signs of its components) in the batch's order instead: rays
- * from a few points in one octant share much of their walks, where rays from points
- * spread apart (one diffuse ray per hit) walked 1.7-2.4 times as long in such packets
- * as one by one (bench/ray_query_bench.cpp). The packet walk offers each ray exactly
- * the leaves its own box test enters, and its leaves take hits by the query's own rule
+ * share their signs (tr_packet_begin); the others go alone, through tr_query_intersect
+ * or tr_query_occluded. Packets are made of consecutive rays; in a run where most rays
+ * start where the ray before them does (several rays from each point, as ambient
+ * occlusion casts them), of the rays of one octant of direction (the signs of its
+ * components) in the batch's order instead: rays from a few points in one octant share
+ * much of their walks, where rays from points spread apart (one diffuse ray per hit)
+ * walked 1.5-2.7 times as long in such packets as one by one
+ * (bench/ray_query_bench.cpp). The packet walk offers each ray exactly the leaves its
+ * own box test enters, and its leaves take hits by the query's own rule
  * (tr_packet_query_offer, tr_packet_query_tie, and for lone rays tr_query_precedes);
  * since that rule is a total order on (t, object, primitive) and the nearest hit's leaf
  * is entered on any walk, each ray gets the answer of tr_query_intersect and
@@ -244,14 +245,15 @@ TR_FN_INLINE int tr_query_octant(TR_GLOBAL const TrQueryRay* r) {
  * in groups qp->order[qp->group_start[k] .. qp->group_start[k + 1]) for k < 8, each
  * in the batch's order; qp->octant[i] is ray i's octant (-1: alone). The groups are the
  * octants (a counting sort) where `by_octant` is 1, or where it is 2 and more than
- * half of the rays start where the ray before them does; else group 0 holds them all. */
+ * half of the rays start where the ray before them does; else group 0 holds them all.
+ * With by_octant -1 every ray goes alone. */
 TR_FN void tr_query_group_run(TrQueryPacket* qp, TR_GLOBAL const TrQueryRay* in, int m,
                               int by_octant) {
   int count[8];
   for (int k = 0; k < 8; ++k) count[k] = 0;
   int shared = 0;
   for (int i = 0; i < m; ++i) {
-    int o = tr_query_octant(&in[i]);
+    int o = by_octant < 0 ? -1 : tr_query_octant(&in[i]);
     qp->octant[i] = o;
     if (o >= 0) ++count[o];
     if (i > 0)
@@ -273,13 +275,19 @@ TR_FN void tr_query_group_run(TrQueryPacket* qp, TR_GLOBAL const TrQueryRay* in,
     if (qp->octant[i] >= 0) qp->order[next[sort ? qp->octant[i] : 0]++] = i;
 }
 
-/* Loads rays in[pick[0 .. n)], n <= TR_PACKET_MAX, all valid, into the packet: ray,
- * tmax (the nearest hit so far), tmin, mask and index in `in`. Returns whether they
- * all have the same octant (qp->octant). */
+/* Loads the rays in[pick[0 .. n)], n <= TR_PACKET_MAX, all valid, into the packet:
+ * ray, tmax (the nearest hit so far), tmin, mask and index in `in`, and returns n,
+ * where they all have one octant (qp->octant); else marks each of them to go alone
+ * (octant -1) and returns 0. */
 TR_FN int tr_query_packet_load(TrQueryPacket* qp, TR_GLOBAL const TrQueryRay* in, const int* pick,
                                int n) {
   TrRayPacket* pk = &qp->packet;
   int same = 1;
+  for (int k = 1; k < n; ++k) same &= qp->octant[pick[k]] == qp->octant[pick[0]];
+  if (!same) {
+    for (int k = 0; k < n; ++k) qp->octant[pick[k]] = -1;
+    n = 0;
+  }
   for (int k = 0; k < n; ++k) {
     TR_GLOBAL const TrQueryRay* r = &in[pick[k]];
     pk->ray[k] = tr_query_ray(r);
@@ -288,21 +296,20 @@ TR_FN int tr_query_packet_load(TrQueryPacket* qp, TR_GLOBAL const TrQueryRay* in
     qp->lanes.tmin[k] = r->tmin;
     qp->lanes.mask[k] = r->mask;
     qp->index[k] = pick[k];
-    same &= qp->octant[pick[k]] == qp->octant[pick[0]];
   }
   pk->n = n;
-  return same;
+  return n;
 }
 
 /* The BVH part of the loaded packet's queries: closest hit, each ray's nearest (t,
  * primitive) in pk->t and pk->prim; any hit, pk->t[r] < 0 where ray r is blocked. As
- * one packet where the rays share an octant (`same`) and are coherent (returns 1),
- * else ray by ray (tr_bvh_walk_query, as tr_query_search walks it). */
-TR_FN_INLINE int tr_query_packet_bvh(const TrSceneRef* s, TrQueryPacket* qp, int same,
-                                     int any_hit) {
+ * one packet where the rays are coherent (returns 1; rays of one octant are, but for an
+ * infinite reciprocal of a tiny component), else ray by ray (tr_bvh_walk_query, as
+ * tr_query_search walks it). */
+TR_FN_INLINE int tr_query_packet_bvh(const TrSceneRef* s, TrQueryPacket* qp, int any_hit) {
   TrRayPacket* pk = &qp->packet;
   if (pk->n <= 0) return 0;
-  if (same && tr_packet_begin(pk)) {
+  if (tr_packet_begin(pk)) {
     tr_mask64 active = pk->n >= 64 ? ~(tr_mask64)0 : ((tr_mask64)1 << pk->n) - 1;
     tr_packet_walk_masked(s, pk, active, any_hit, 8, 1, &qp->lanes);
     return 1;
@@ -320,82 +327,66 @@ TR_FN_INLINE int tr_query_packet_bvh(const TrSceneRef* s, TrQueryPacket* qp, int
   return 0;
 }
 
-/* tr_query_intersect for each of the rays in[0 .. n), in packets where the scene has an
- * 8-wide BVH, grouped as tr_query_group_run groups them (by_octant: 0 never by octant,
- * 1 always, 2 where rays share their origins). Returns how many rays went through the
- * packet walk. */
-TR_FN int tr_query_intersect_rays(const TrSceneRef* s, TrQueryPacket* qp,
-                                  TR_GLOBAL const TrQueryRay* in, int n, TR_GLOBAL TrQueryHit* out,
-                                  TR_GLOBAL TrQueryExtras* extras, int extra_flags, int by_octant) {
+/* The answers of the rays in[0 .. n), in packets where the scene has an 8-wide BVH,
+ * grouped as tr_query_group_run groups them: closest hits into out[i] (and where
+ * extra_flags asks, extras[i]) as tr_query_intersect gives them, or with any_hit 1 (a
+ * constant) blocked[i] as tr_query_occluded does. Returns how many rays went through
+ * the packet walk. */
+TR_FN_INLINE int tr_query_rays(const TrSceneRef* s, TrQueryPacket* qp,
+                               TR_GLOBAL const TrQueryRay* in, int n, TR_GLOBAL TrQueryHit* out,
+                               TR_GLOBAL TrQueryExtras* extras, int extra_flags,
+                               TR_GLOBAL unsigned char* blocked, int any_hit, int by_octant) {
   int walked = 0;
-  if (!tr_use(s, TR_F_BVH8)) {
-    for (int i = 0; i < n; ++i)
-      tr_query_intersect(s, &in[i], &out[i], extra_flags != 0 ? &extras[i] : extras, extra_flags);
-    return 0;
-  }
   TrRayPacket* pk = &qp->packet;
   for (int at = 0; at < n; at += TR_QUERY_RUN) {
     int m = n - at < TR_QUERY_RUN ? n - at : TR_QUERY_RUN;
     TR_GLOBAL const TrQueryRay* run = in + at;
-    tr_query_group_run(qp, run, m, by_octant);
+    tr_query_group_run(qp, run, m, tr_use(s, TR_F_BVH8) ? by_octant : -1);
     for (int k = 0; k < 8; ++k)
       for (int j = qp->group_start[k]; j < qp->group_start[k + 1]; j += TR_PACKET_MAX) {
         int end = qp->group_start[k + 1];
-        int same = tr_query_packet_load(qp, run, &qp->order[j],
-                                        end - j < TR_PACKET_MAX ? end - j : TR_PACKET_MAX);
-        if (tr_query_packet_bvh(s, qp, same, 0)) walked += pk->n;
+        tr_query_packet_load(qp, run, &qp->order[j],
+                             end - j < TR_PACKET_MAX ? end - j : TR_PACKET_MAX);
+        if (tr_query_packet_bvh(s, qp, any_hit)) walked += pk->n;
         for (int r = 0; r < pk->n; ++r) {
           int i = at + qp->index[r];
           TrNearest nearest;
           nearest.t = pk->t[r];
-          nearest.prim = pk->prim[r];
-          tr_query_planes(s, pk->ray[r], qp->lanes.tmin[r], qp->lanes.mask[r], &nearest, 0);
-          tr_query_write(s, pk->ray[r], nearest, nearest.prim >= 0, &out[i],
-                         extra_flags != 0 ? &extras[i] : extras, extra_flags);
+          nearest.prim = any_hit ? -1 : pk->prim[r];
+          int b = (any_hit && pk->t[r] < TR_R(0.0)) ||
+                  tr_query_planes(s, pk->ray[r], qp->lanes.tmin[r], qp->lanes.mask[r], &nearest,
+                                  any_hit);
+          if (any_hit)
+            blocked[i] = (unsigned char)(b ? 1 : 0);
+          else
+            tr_query_write(s, pk->ray[r], nearest, nearest.prim >= 0, &out[i],
+                           extra_flags != 0 ? &extras[i] : extras, extra_flags);
         }
       }
-    for (int i = 0; i < m; ++i)
-      if (qp->octant[i] < 0)
+    for (int i = 0; i < m; ++i) {
+      if (qp->octant[i] >= 0) continue;
+      if (any_hit)
+        blocked[at + i] = (unsigned char)(tr_query_occluded(s, &run[i]) ? 1 : 0);
+      else
         tr_query_intersect(s, &run[i], &out[at + i], extra_flags != 0 ? &extras[at + i] : extras,
                            extra_flags);
+    }
   }
   return walked;
 }
 
+/* tr_query_intersect for each of the rays in[0 .. n), in packets (tr_query_rays; by_octant:
+ * 0 never by octant, 1 always, 2 where rays share their origins). */
+TR_FN int tr_query_intersect_rays(const TrSceneRef* s, TrQueryPacket* qp,
+                                  TR_GLOBAL const TrQueryRay* in, int n, TR_GLOBAL TrQueryHit* out,
+                                  TR_GLOBAL TrQueryExtras* extras, int extra_flags, int by_octant) {
+  return tr_query_rays(s, qp, in, n, out, extras, extra_flags, 0, 0, by_octant);
+}
+
 /* tr_query_occluded for each of the rays in[0 .. n) into blocked[i] (1 or 0), in
- * packets as tr_query_intersect_rays. Returns how many rays went through the packet
- * walk. */
+ * packets as tr_query_intersect_rays. */
 TR_FN int tr_query_occluded_rays(const TrSceneRef* s, TrQueryPacket* qp,
                                  TR_GLOBAL const TrQueryRay* in, int n,
                                  TR_GLOBAL unsigned char* blocked, int by_octant) {
-  int walked = 0;
-  if (!tr_use(s, TR_F_BVH8)) {
-    for (int i = 0; i < n; ++i) blocked[i] = (unsigned char)(tr_query_occluded(s, &in[i]) ? 1 : 0);
-    return 0;
-  }
-  TrRayPacket* pk = &qp->packet;
-  for (int at = 0; at < n; at += TR_QUERY_RUN) {
-    int m = n - at < TR_QUERY_RUN ? n - at : TR_QUERY_RUN;
-    TR_GLOBAL const TrQueryRay* run = in + at;
-    tr_query_group_run(qp, run, m, by_octant);
-    for (int k = 0; k < 8; ++k)
-      for (int j = qp->group_start[k]; j < qp->group_start[k + 1]; j += TR_PACKET_MAX) {
-        int end = qp->group_start[k + 1];
-        int same = tr_query_packet_load(qp, run, &qp->order[j],
-                                        end - j < TR_PACKET_MAX ? end - j : TR_PACKET_MAX);
-        if (tr_query_packet_bvh(s, qp, same, 1)) walked += pk->n;
-        for (int r = 0; r < pk->n; ++r) {
-          TrNearest limit;
-          limit.t = pk->t[r];
-          limit.prim = -1;
-          int b = pk->t[r] < TR_R(0.0) ||
-                  tr_query_planes(s, pk->ray[r], qp->lanes.tmin[r], qp->lanes.mask[r], &limit, 1);
-          blocked[at + qp->index[r]] = (unsigned char)(b ? 1 : 0);
-        }
-      }
-    for (int i = 0; i < m; ++i)
-      if (qp->octant[i] < 0)
-        blocked[at + i] = (unsigned char)(tr_query_occluded(s, &run[i]) ? 1 : 0);
-  }
-  return walked;
+  return tr_query_rays(s, qp, in, n, 0, 0, 0, blocked, 1, by_octant);
 }
