@@ -24,6 +24,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <twinray/backend/cpu.hpp>
@@ -126,15 +127,15 @@ double time_embree(RTCScene scene, const Variant& v, const Workload& w,
 
 double time_twinray(const twinray::PackedScene<float>& ps, const Workload& w,
                     std::vector<twinray::Hit<float>>& hits, std::vector<uint8_t>& blocked,
-                    size_t* found) {
+                    size_t* found, twinray::cpu::QueryWalk walk) {
   const size_t n = w.rays.size();
   hits.resize(n);
   blocked.resize(n);
   const auto t0 = Clock::now();
   if (w.closest)
-    twinray::cpu::query_intersect(ps, w.rays.data(), n, hits.data(), 0, nullptr);
+    twinray::cpu::query_intersect(ps, w.rays.data(), n, hits.data(), 0, nullptr, walk);
   else
-    twinray::cpu::query_occluded(ps, w.rays.data(), n, blocked.data());
+    twinray::cpu::query_occluded(ps, w.rays.data(), n, blocked.data(), walk);
   const double s = seconds_since(t0);
   *found = 0;
   for (size_t i = 0; i < n; ++i) *found += w.closest ? hits[i].object >= 0 : blocked[i];
@@ -288,16 +289,40 @@ int main(int argc, char** argv) {
     std::vector<uint8_t> tw_blocked;
     std::vector<RTCRayHit> em_hits;
     std::vector<RTCRay> em_rays;
+    // twinray's walks: what the backend runs first, then packets always of consecutive
+    // rays, always of one octant's rays, and every ray alone, which must give the same
+    // bits.
+    const std::vector<std::pair<twinray::cpu::QueryWalk, const char*>> walks = {
+        {twinray::cpu::QueryWalk::Packets, "packets"},
+        {twinray::cpu::QueryWalk::PacketsInOrder, "packets in order"},
+        {twinray::cpu::QueryWalk::PacketsByOctant, "packets by octant"},
+        {twinray::cpu::QueryWalk::RayByRay, "ray by ray"}};
     for (const Workload& w : work) {
-      std::vector<double> tw;
+      std::vector<std::vector<double>> tws(walks.size());
+      std::vector<double>& tw = tws[0];
       std::vector<std::vector<double>> em(variants.size());
-      size_t tw_found = 0;
+      size_t tw_found = 0, walk_found = 0;
+      std::vector<bool> same_bits(walks.size(), true);
+      std::vector<twinray::Hit<float>> ref_hits;
+      std::vector<uint8_t> ref_blocked;
       std::vector<size_t> em_found(variants.size(), 0);
       for (int round = 0; round < rounds + 1; ++round) {  // round 0 warms up
-        double s = time_twinray(ps, w, tw_hits, tw_blocked, &tw_found);
-        if (round > 0) tw.push_back(s);
+        for (size_t k = 0; k < walks.size(); ++k) {
+          double s = time_twinray(ps, w, tw_hits, tw_blocked, k == 0 ? &tw_found : &walk_found,
+                                  walks[k].first);
+          if (round > 0) tws[k].push_back(s);
+          if (k == 0) {
+            ref_hits = tw_hits;
+            ref_blocked = tw_blocked;
+          } else if (w.closest) {
+            same_bits[k] = same_bits[k] && std::memcmp(tw_hits.data(), ref_hits.data(),
+                                                       tw_hits.size() * sizeof(tw_hits[0])) == 0;
+          } else {
+            same_bits[k] = same_bits[k] && tw_blocked == ref_blocked;
+          }
+        }
         for (size_t v = 0; v < variants.size(); ++v) {
-          s = time_embree(world.scene, variants[v], w, em_hits, em_rays, &em_found[v]);
+          const double s = time_embree(world.scene, variants[v], w, em_hits, em_rays, &em_found[v]);
           if (round > 0) em[v].push_back(s);
         }
       }
@@ -307,6 +332,11 @@ int main(int argc, char** argv) {
                   w.rays.size(), w.closest ? "intersect" : "occluded",
                   w.coherent ? "coherent" : "incoherent", tw_rate / 1e6, tw_found,
                   w.closest ? "hits" : "blocked");
+      for (size_t k = 1; k < walks.size(); ++k)
+        std::printf("           twinray %-19s %7.2f Mrays/s  twinray/this %.2f; same bits: %s\n",
+                    walks[k].second, n / twinray_bench::quantile(tws[k], 0.5) / 1e6,
+                    tw_rate * twinray_bench::quantile(tws[k], 0.5) / n,
+                    same_bits[k] ? "yes" : "NO");
       size_t best = 0;
       for (size_t v = 0; v < variants.size(); ++v) {
         const double rate = n / twinray_bench::quantile(em[v], 0.5);

@@ -175,7 +175,7 @@ void check_masked_walk(int width) {
     }
     if (!K<T>::tr_packet_begin(&pk)) continue;  // the walk takes coherent packets only
     ++coherent_packets;
-    K<T>::tr_packet_walk_masked(&ref, &pk, active, any_hit ? 1 : 0, width);
+    K<T>::tr_packet_walk_masked(&ref, &pk, active, any_hit ? 1 : 0, width, 0, nullptr);
     for (int r = 0; r < pk.n; ++r) {
       CAPTURE(trial);
       CAPTURE(r);

@@ -14,6 +14,7 @@
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <memory>
 #include <string>
@@ -83,41 +84,84 @@ void for_each_ray_chunk(size_t n, F&& chunk) {
   }
 }
 
-// Calls per_ray(kernel, ref, i) for each of the n rays of a query against `scene`, on
-// this thread and parallel_for's: `kernel` is a null pointer of the CPU kernel type the
-// scene's features pick (kQuerySpecializedFeatures), `ref` the device code's view of
-// the scene.
-template <class T, class PerRay>
-void for_each_query_ray(const PackedScene<T>& scene, size_t n, PerRay&& per_ray) {
+// How the CPU answers a batch of queries: Packets (what the backend does) walks up to
+// TR_PACKET_MAX rays at a time as one packet where their directions share their signs,
+// made of consecutive rays, or in runs of rays that mostly share their origins, of the
+// rays of one octant (device/ray_query.h, tr_query_intersect_rays); PacketsInOrder
+// always makes them of consecutive rays, PacketsByOctant always of one octant's rays;
+// RayByRay walks every ray alone. The answers are the same bits either way
+// (tests/query).
+enum class QueryWalk { Packets, PacketsInOrder, PacketsByOctant, RayByRay };
+
+// The grouping tr_query_intersect_rays and tr_query_occluded_rays take for a walk.
+inline int query_grouping(QueryWalk walk) {
+  return walk == QueryWalk::PacketsInOrder ? 0 : walk == QueryWalk::PacketsByOctant ? 1 : 2;
+}
+
+// Answers the n rays of a query against `scene`, on this thread and parallel_for's, in
+// chunks: for each ray, one(kernel, ref, i) where `walk` is RayByRay, else for each
+// chunk packets(kernel, ref, scratch, begin, end), which returns how many rays went
+// through the packet walk: `kernel` is a null pointer of the CPU kernel type the
+// scene's features pick (kQuerySpecializedFeatures), `ref` the device code's view of the
+// scene, `scratch` this thread's packet. Returns the sum of packets' results.
+template <class T, class One, class Packets>
+size_t for_each_query_chunk(const PackedScene<T>& scene, size_t n, QueryWalk walk, One&& one,
+                            Packets&& packets) {
   const auto params = query_params(scene.summary());
   const auto ref = scene_ref<T>(scene, &params, nullptr);
+  std::atomic<size_t> total{0};
   with_features_of<kQuerySpecializedFeatures>(scene.features, [&](auto features) {
     using K = typename device::Code<T>::template CpuKernel<decltype(features)::value>;
     for_each_ray_chunk(n, [&](size_t begin, size_t end) {
-      for (size_t i = begin; i < end; ++i) per_ray(static_cast<K*>(nullptr), ref, i);
+      if (walk == QueryWalk::RayByRay) {
+        for (size_t i = begin; i < end; ++i) one(static_cast<K*>(nullptr), ref, i);
+        return;
+      }
+      thread_local typename device::Code<T>::CpuQueryPacket scratch;
+      const int walked = packets(static_cast<K*>(nullptr), ref, &scratch, begin, end);
+      if (walked != 0) total.fetch_add(static_cast<size_t>(walked), std::memory_order_relaxed);
     });
   });
+  return total.load();
 }
 
 // The closest hit of each of the n rays against `scene` (RenderBackend::intersect): what
-// CpuBackend runs, callable without a backend.
+// CpuBackend runs, callable without a backend. Returns how many rays went through the
+// packet walk.
 template <class T>
-void query_intersect(const PackedScene<T>& scene, const Ray<T>* rays, size_t n, Hit<T>* hits,
-                     unsigned extras, HitExtra<T>* extra_out) {
-  for_each_query_ray(scene, n, [&](auto kernel, const auto& ref, size_t i) {
-    using K = std::remove_pointer_t<decltype(kernel)>;
-    K::tr_query_intersect(&ref, &rays[i], &hits[i], extra_out ? &extra_out[i] : nullptr,
-                          static_cast<int>(extras));
-  });
+size_t query_intersect(const PackedScene<T>& scene, const Ray<T>* rays, size_t n, Hit<T>* hits,
+                       unsigned extras, HitExtra<T>* extra_out,
+                       QueryWalk walk = QueryWalk::Packets) {
+  const int flags = static_cast<int>(extras);
+  return for_each_query_chunk(
+      scene, n, walk,
+      [&](auto kernel, const auto& ref, size_t i) {
+        std::remove_pointer_t<decltype(kernel)>::tr_query_intersect(
+            &ref, &rays[i], &hits[i], extra_out ? &extra_out[i] : nullptr, flags);
+      },
+      [&](auto kernel, const auto& ref, auto* scratch, size_t begin, size_t end) {
+        return std::remove_pointer_t<decltype(kernel)>::tr_query_intersect_rays(
+            &ref, scratch, &rays[begin], static_cast<int>(end - begin), &hits[begin],
+            extra_out ? &extra_out[begin] : nullptr, flags, query_grouping(walk));
+      });
 }
 
-// Whether anything blocks each of the n rays (RenderBackend::occluded): 1 or 0.
+// Whether anything blocks each of the n rays (RenderBackend::occluded): 1 or 0. Returns
+// how many rays went through the packet walk.
 template <class T>
-void query_occluded(const PackedScene<T>& scene, const Ray<T>* rays, size_t n, uint8_t* blocked) {
-  for_each_query_ray(scene, n, [&](auto kernel, const auto& ref, size_t i) {
-    using K = std::remove_pointer_t<decltype(kernel)>;
-    blocked[i] = static_cast<uint8_t>(K::tr_query_occluded(&ref, &rays[i]) ? 1 : 0);
-  });
+size_t query_occluded(const PackedScene<T>& scene, const Ray<T>* rays, size_t n, uint8_t* blocked,
+                      QueryWalk walk = QueryWalk::Packets) {
+  return for_each_query_chunk(
+      scene, n, walk,
+      [&](auto kernel, const auto& ref, size_t i) {
+        blocked[i] = static_cast<uint8_t>(
+            std::remove_pointer_t<decltype(kernel)>::tr_query_occluded(&ref, &rays[i]) ? 1 : 0);
+      },
+      [&](auto kernel, const auto& ref, auto* scratch, size_t begin, size_t end) {
+        return std::remove_pointer_t<decltype(kernel)>::tr_query_occluded_rays(
+            &ref, scratch, &rays[begin], static_cast<int>(end - begin), &blocked[begin],
+            query_grouping(walk));
+      });
 }
 
 // Calls block(x, y, w, h) for every block of at most block_w x block_h pixels of the

@@ -230,13 +230,53 @@ TR_FN_INLINE void tr_packet_offer(TrRayPacket* pk, int r, int hit, real t, int p
   pk->prim[r] = nearer ? prim : prim_r;
 }
 
+/* The same for a ray query (ray_query.h), whose tmin and mask q holds: t counts where
+ * t > 0, t >= the ray's tmin and t <= its nearest hit so far (or its tmax: the interval
+ * is closed), and `sees` (the ray's mask shares a bit with the object's). Closest hit:
+ * a smaller t, or any such t while the ray has no hit yet, is taken here; returns 1 for
+ * a tie of t with the ray's nearest hit, which tr_query_precedes settles outside the
+ * lanes (it reads both primitives' object and face). Any hit: such a t blocks the ray
+ * (pk->t[r] = -1). */
+TR_FN_INLINE int tr_packet_query_offer(TrRayPacket* pk, const TrQueryLanes* q, int r, int hit,
+                                       int sees, real t, int prim, int any_hit) {
+  real t_r = pk->t[r];
+  int prim_r = pk->prim[r];
+  int counts = hit & sees & (t > TR_R(0.0)) & (t >= q->tmin[r]) & (t <= t_r);
+  int first = (t < t_r) | (prim_r < 0);
+  int blocked = any_hit & counts;
+  int nearer = (any_hit == 0) & counts & first;
+  pk->t[r] = blocked ? TR_R(-1.0) : nearer ? t : t_r;
+  pk->prim[r] = nearer ? prim : prim_r;
+  return (any_hit == 0) & counts & !first;
+}
+
+/* A tie of primitive prim's t with ray r's nearest hit (tr_packet_query_offer): prim
+ * takes it where it comes first in tr_query_precedes's order of (object, face). */
+TR_FN_INLINE void tr_packet_query_tie(const TrSceneRef* s, TrRayPacket* pk, const TrQueryLanes* q,
+                                      int r, int prim) {
+  if (tr_query_precedes(s, pk->t[r], prim, q->tmin[r], pk->t[r], pk->prim[r])) pk->prim[r] = prim;
+}
+
+/* Whether ray r of a query packet sees an object of mask object_mask (tr_query_skips);
+ * 1 where masks is 0 (the scene has none). */
+TR_FN_INLINE int tr_packet_query_sees(const TrQueryLanes* q, int r, int masks,
+                                      unsigned int object_mask) {
+  return (masks == 0) | ((object_mask & q->mask[r]) != 0u);
+}
+
 /* Triangle p0 p1 p2 (primitive prim) offered to each ray r of the group of
  * TR_PACKET_GROUP rays from ray g with enter[r] set, a ray per SIMD lane:
- * tr_triangle_hit_at without branches (may_straddle a constant), then tr_packet_offer.
- * The group's other rays are computed and dropped. */
-TR_FN_INLINE void tr_packet_triangle_lanes_of(TrRayPacket* pk, vec3 p0, vec3 p1, vec3 p2, int prim,
-                                              const int* enter, int g, int any_hit,
-                                              int may_straddle) {
+ * tr_triangle_hit_at without branches (may_straddle a constant), then tr_packet_offer,
+ * or for a ray query (`query` a constant; q its rays' tmin and mask, masks and
+ * object_mask as in tr_packet_query_sees) tr_packet_query_offer. The group's other
+ * rays are computed and dropped. Returns the ties of a closest-hit query (bit j: ray
+ * g + j), which the caller settles. */
+TR_FN_INLINE unsigned tr_packet_triangle_lanes_of(TrRayPacket* pk, vec3 p0, vec3 p1, vec3 p2,
+                                                  int prim, const int* enter, int g, int any_hit,
+                                                  int may_straddle, int query,
+                                                  const TrQueryLanes* q, int masks,
+                                                  unsigned int object_mask) {
+  unsigned ties = 0u;
   TR_LANE_LOOP
   for (int r = g; r < g + TR_PACKET_GROUP; ++r) {
     TrTriangleRay tri_ray = tr_packet_triangle_ray(pk, r);
@@ -244,36 +284,58 @@ TR_FN_INLINE void tr_packet_triangle_lanes_of(TrRayPacket* pk, vec3 p0, vec3 p1,
     real t;
     int hit = enter[r] & tr_triangle_hit_at(p0, p1, p2, TR_VEC3(pk->ox[r], pk->oy[r], pk->oz[r]),
                                             &tri_ray, 0, may_straddle, &t, &bary);
-    tr_packet_offer(pk, r, hit, t, prim, any_hit);
+    if (query)
+      ties |= (unsigned)tr_packet_query_offer(
+                  pk, q, r, hit, tr_packet_query_sees(q, r, masks, object_mask), t, prim, any_hit)
+              << (r - g);
+    else
+      tr_packet_offer(pk, r, hit, t, prim, any_hit);
   }
+  return ties;
 }
 
 /* Triangle prim offered to the group's rays as above; `ahead` where its leaf's box lies
  * ahead of every ray of the packet (tr_packet_hits_boxes), which lets the lanes skip
  * the straddle bound. */
-TR_FN_INLINE void tr_packet_triangle_lanes(const TrSceneRef* s, TrRayPacket* pk, int prim,
-                                           const int* enter, int g, int any_hit, int ahead) {
+TR_FN_INLINE unsigned tr_packet_triangle_lanes(const TrSceneRef* s, TrRayPacket* pk, int prim,
+                                               const int* enter, int g, int any_hit, int ahead,
+                                               int query, const TrQueryLanes* q, int masks,
+                                               unsigned int object_mask) {
   TR_GLOBAL const TrTriangle* tri = &s->triangles[prim - s->params->n_spheres];
   vec3 p0 = tr_triangle_p0(tri), p1 = tr_triangle_p1(tri), p2 = tr_triangle_p2(tri);
   if (ahead)
-    tr_packet_triangle_lanes_of(pk, p0, p1, p2, prim, enter, g, any_hit, 0);
-  else
-    tr_packet_triangle_lanes_of(pk, p0, p1, p2, prim, enter, g, any_hit, 1);
+    return tr_packet_triangle_lanes_of(pk, p0, p1, p2, prim, enter, g, any_hit, 0, query, q, masks,
+                                       object_mask);
+  return tr_packet_triangle_lanes_of(pk, p0, p1, p2, prim, enter, g, any_hit, 1, query, q, masks,
+                                     object_mask);
 }
 
 /* Sphere prim offered to each ray r of the group from ray g with enter[r] set, a ray
- * per SIMD lane, as tr_packet_triangle_lanes does for triangles. */
-TR_FN_INLINE void tr_packet_sphere_lanes(const TrSceneRef* s, TrRayPacket* pk, int prim,
-                                         const int* enter, int g, int any_hit) {
+ * per SIMD lane, as tr_packet_triangle_lanes does for triangles; for a ray query, the
+ * sphere's first crossing from the ray's tmin on (tr_sphere_t_from). */
+TR_FN_INLINE unsigned tr_packet_sphere_lanes(const TrSceneRef* s, TrRayPacket* pk, int prim,
+                                             const int* enter, int g, int any_hit, int query,
+                                             const TrQueryLanes* q, int masks,
+                                             unsigned int object_mask) {
   TR_GLOBAL const TrSphere* sp = &s->spheres[prim];
   vec3 center = tr_sphere_center(sp);
   real radius = sp->radius;
+  unsigned ties = 0u;
   TR_LANE_LOOP
   for (int r = g; r < g + TR_PACKET_GROUP; ++r) {
     real t;
-    int hit = enter[r] & tr_sphere_hit_at(center, radius, tr_packet_ray(pk, r), 0, &t);
-    tr_packet_offer(pk, r, hit, t, prim, any_hit);
+    if (query) {
+      int hit =
+          enter[r] & tr_sphere_hit_from(center, radius, tr_packet_ray(pk, r), 0, 1, q->tmin[r], &t);
+      ties |= (unsigned)tr_packet_query_offer(
+                  pk, q, r, hit, tr_packet_query_sees(q, r, masks, object_mask), t, prim, any_hit)
+              << (r - g);
+    } else {
+      int hit = enter[r] & tr_sphere_hit_at(center, radius, tr_packet_ray(pk, r), 0, &t);
+      tr_packet_offer(pk, r, hit, t, prim, any_hit);
+    }
   }
+  return ties;
 }
 
 /* A leaf's primitives bvh_prims[first .. first + count) offered to the rays of `in`
@@ -287,9 +349,12 @@ TR_FN_INLINE void tr_packet_sphere_lanes(const TrSceneRef* s, TrRayPacket* pk, i
  * docs/performance.md). The lane loops vectorize in g++ and on
  * PoCL alike, since the primitive tests compute in scalars (LLVM does not widen
  * float3). `ahead`: the leaf's box lies ahead of every ray of the packet
- * (tr_packet_hits_boxes). */
+ * (tr_packet_hits_boxes). A ray query (`query` a constant, q its rays' tmin and mask)
+ * takes hits as tr_bvh_walk_query's leaves do: in [tmin, nearest] in
+ * tr_query_precedes's order, objects the ray's mask excludes skipped. */
 TR_FN_INLINE void tr_packet_leaf(const TrSceneRef* s, TrRayPacket* pk, int first, int count,
-                                 tr_mask64 in, const int* enter, int any_hit, int ahead) {
+                                 tr_mask64 in, const int* enter, int any_hit, int ahead, int query,
+                                 const TrQueryLanes* q) {
   /* Bit g set for each group (from ray g) tested in lanes; the other rays of `in` go
    * one at a time. With a minimum of one ray, every group that holds one. */
   tr_mask64 lane_groups = 0, lone_rays = 0;
@@ -300,15 +365,22 @@ TR_FN_INLINE void tr_packet_leaf(const TrSceneRef* s, TrRayPacket* pk, int first
     else
       lone_rays |= (tr_mask64)group << g;
   }
+  int masks = query && tr_use(s, TR_F_MASKS);
   for (int i = first; i < first + count; ++i) {
     int prim = tr_bvh_prim(s, i);
     int sphere = TR_HAS(TR_F_SPHERES) && prim < s->params->n_spheres;
+    unsigned int object_mask = masks ? s->object_masks[tr_query_object(s, prim)] : 0xffffffffu;
     for (tr_mask64 m = lane_groups; m != 0; m &= m - 1) {
       int g = TR_LOWEST_BIT64(m);
+      unsigned ties = 0u;
       if (sphere)
-        tr_packet_sphere_lanes(s, pk, prim, enter, g, any_hit);
+        ties = tr_packet_sphere_lanes(s, pk, prim, enter, g, any_hit, query, q, masks, object_mask);
       else if (TR_HAS(TR_F_TRIANGLES))
-        tr_packet_triangle_lanes(s, pk, prim, enter, g, any_hit, ahead);
+        ties = tr_packet_triangle_lanes(s, pk, prim, enter, g, any_hit, ahead, query, q, masks,
+                                        object_mask);
+      if (query)
+        for (; ties != 0u; ties &= ties - 1u)
+          tr_packet_query_tie(s, pk, q, g + TR_LOWEST_BIT(ties), prim);
     }
     /* One ray at a time, the offer keeps its branches: most tests miss, and the selects
      * of tr_packet_offer made spheres_1e5 frames 7% slower here (docs/performance.md). */
@@ -316,6 +388,16 @@ TR_FN_INLINE void tr_packet_leaf(const TrSceneRef* s, TrRayPacket* pk, int first
       int r = TR_LOWEST_BIT64(m);
       if (any_hit && pk->t[r] < TR_R(0.0)) continue; /* blocked by an earlier primitive */
       TrTriangleRay tri_ray = tr_packet_triangle_ray(pk, r);
+      if (query) {
+        /* tr_bvh_walk_wide's leaf step for one query ray */
+        if (!tr_packet_query_sees(q, r, masks, object_mask)) continue;
+        real t = tr_primitive_t_from(s, prim, pk->ray[r], &tri_ray, q->tmin[r]);
+        if (tr_query_precedes(s, t, prim, q->tmin[r], pk->t[r], pk->prim[r])) {
+          pk->t[r] = any_hit ? TR_R(-1.0) : t;
+          pk->prim[r] = any_hit ? pk->prim[r] : prim;
+        }
+        continue;
+      }
       real t = tr_primitive_t(s, prim, pk->ray[r], &tri_ray);
       if (any_hit) {
         if (t > TR_R(0.0) && t < pk->t[r]) pk->t[r] = TR_R(-1.0);
@@ -401,9 +483,11 @@ TR_FN_INLINE TrBoxRay tr_packet_box_ray(const TrRayPacket* pk, int r) {
  * packet's entry bound (closest hit), or in bit order (any hit): tr_inner_order.
  * Bit order is the collapse's left to right; for shadow rays, nearest first took 1.08-1.10
  * times as long on the benchmark scenes, and the best order depends on where the light
- * is (docs/performance.md). */
+ * is (docs/performance.md). With `query` 1 (a constant; q the rays' tmin and mask) the
+ * leaves take hits as a ray query's walk does (tr_packet_leaf), and the answers are
+ * tr_bvh_walk_query's; the renderer passes 0 and a null q. */
 TR_FN_INLINE void tr_packet_walk_masked(const TrSceneRef* s, TrRayPacket* pk, tr_mask64 active,
-                                        int any_hit, int W) {
+                                        int any_hit, int W, int query, const TrQueryLanes* q) {
   if (s->params->n_bvh_nodes <= 0 || active == 0) return;
   int stack_node[TR_BVH_STACK_SIZE], stack_lead[TR_BVH_STACK_SIZE];
   real stack_t[TR_BVH_STACK_SIZE];
@@ -453,7 +537,8 @@ TR_FN_INLINE void tr_packet_walk_masked(const TrSceneRef* s, TrRayPacket* pk, tr
         continue;
       }
       leaves_tested = 1;
-      tr_packet_leaf(s, pk, first[k], count[k], in, enter, any_hit, (int)((ahead >> k) & 1u));
+      tr_packet_leaf(s, pk, first[k], count[k], in, enter, any_hit, (int)((ahead >> k) & 1u), query,
+                     q);
     }
     if (leaves_tested) {
       tmax_grown = tr_packet_tmax_grown(pk);
@@ -531,9 +616,9 @@ TR_FN void tr_packet_bvh(const TrSceneRef* s, TrRayPacket* pk, int coherent, int
     /* A copy of the walk for each kind of query, any_hit a constant in each, so that
      * no node tests it: a few percent on the 1e5 and 1e6 scenes (docs/performance.md). */
     if (any_hit)
-      tr_packet_walk_masked(s, pk, active, 1, 8);
+      tr_packet_walk_masked(s, pk, active, 1, 8, 0, 0);
     else
-      tr_packet_walk_masked(s, pk, active, 0, 8);
+      tr_packet_walk_masked(s, pk, active, 0, 8, 0, 0);
     return;
   }
   for (int r = 0; r < pk->n; ++r) {

@@ -181,6 +181,7 @@ struct Code<float> {
   using CpuKernel = f32_cpu::Kernel<Features>;
   using CpuBlockScratch = f32_cpu::TrBlockScratch;
   using CpuRayStack = f32_cpu::TrRayStack;
+  using CpuQueryPacket = f32_cpu::TrQueryPacket;
   using CpuVec3 = f32_cpu::vec3;
   static constexpr const char* name = "float";
 };
@@ -212,6 +213,7 @@ struct Code<double> {
   using CpuKernel = f64_cpu::Kernel<Features>;
   using CpuBlockScratch = f64_cpu::TrBlockScratch;
   using CpuRayStack = f64_cpu::TrRayStack;
+  using CpuQueryPacket = f64_cpu::TrQueryPacket;
   using CpuVec3 = f64_cpu::vec3;
   static constexpr const char* name = "double";
 };

@@ -1,9 +1,10 @@
 /* Ray queries on the user's own rays (docs/ray-queries.md): the closest hit
  * (tr_query_intersect) and whether anything is hit (tr_query_occluded) for one
  * TrQueryRay, through the same walk the renderer's rays take (bvh_traverse.h) with the
- * query's interval [tmin, tmax] and mask. The CPU backend calls these functions in
- * C++, the query kernels of kernels/render.cl in OpenCL C: the same text, the same
- * bits.
+ * query's interval [tmin, tmax] and mask, or for the CPU backend's batches through the
+ * renderer's packet walk where rays run together (tr_query_intersect_rays, below). The
+ * CPU backend calls these functions in C++, the query kernels of kernels/render.cl in
+ * OpenCL C: the same text, the same bits.
  *
  * The closest hit is the smallest (t, object, primitive) with t > 0 in [tmin, tmax]
  * (tr_query_precedes), so no batch size, ray order, thread count, BVH width, ISA or
@@ -36,6 +37,20 @@ TR_FN_INLINE int tr_query_take(const TrSceneRef* s, TrNearest* nearest, real t, 
   return any_hit;
 }
 
+/* The planes (outside the BVH) offered to a query's nearest hit: closest hit, *nearest
+ * updated; any hit, returns 1 at the first plane hit. */
+TR_FN_INLINE int tr_query_planes(const TrSceneRef* s, TrRay ray, real tmin, unsigned int mask,
+                                 TrNearest* nearest, int any_hit) {
+  if (TR_HAS(TR_F_PLANES)) {
+    int n_bounded = s->params->n_spheres + s->params->n_triangles;
+    for (int i = 0; i < s->params->n_planes; ++i)
+      if (!tr_query_skips(s, n_bounded + i, mask) &&
+          tr_query_take(s, nearest, tr_plane_t(&s->planes[i], ray), n_bounded + i, tmin, any_hit))
+        return 1;
+  }
+  return 0;
+}
+
 /* The query's search over the whole scene, nearest->t holding tmax and nearest->prim
  * -1 at the start: the BVH (or the flat arrays of a scene without one), then the
  * planes. Closest hit: *nearest is the hit, and the result whether there is one. Any
@@ -63,12 +78,7 @@ TR_FN_INLINE int tr_query_search(const TrSceneRef* s, TrRay ray, real tmin, unsi
           return 1;
     }
   }
-  if (TR_HAS(TR_F_PLANES)) {
-    for (int i = 0; i < s->params->n_planes; ++i)
-      if (!tr_query_skips(s, n_bounded + i, mask) &&
-          tr_query_take(s, nearest, tr_plane_t(&s->planes[i], ray), n_bounded + i, tmin, any_hit))
-        return 1;
-  }
+  if (tr_query_planes(s, ray, tmin, mask, nearest, any_hit)) return 1;
   return nearest->prim >= 0;
 }
 
@@ -129,12 +139,12 @@ TR_FN void tr_query_surface_uv(const TrSceneRef* s, TrRay ray, TrNearest nearest
   }
 }
 
-/* The closest hit of *in into *out (TrQueryHit; a miss where there is none or the ray
- * is not valid), and where extra_flags asks (TR_QUERY_*), the extras into *extras
- * (fields not asked for are 0). */
-TR_FN void tr_query_intersect(const TrSceneRef* s, TR_GLOBAL const TrQueryRay* in,
-                              TR_GLOBAL TrQueryHit* out, TR_GLOBAL TrQueryExtras* extras,
-                              int extra_flags) {
+/* The answer of a closest-hit query into *out (TrQueryHit) and, where extra_flags asks
+ * (TR_QUERY_*), the extras into *extras (fields not asked for are 0): the hit of ray
+ * `ray` at nearest where `found`, else a miss. */
+TR_FN void tr_query_write(const TrSceneRef* s, TrRay ray, TrNearest nearest, int found,
+                          TR_GLOBAL TrQueryHit* out, TR_GLOBAL TrQueryExtras* extras,
+                          int extra_flags) {
   TrQueryHit h;
   h.t = TR_R(INFINITY);
   h.u = TR_R(0.0);
@@ -151,38 +161,46 @@ TR_FN void tr_query_intersect(const TrSceneRef* s, TR_GLOBAL const TrQueryRay* i
   e.tex_u = TR_R(0.0);
   e.tex_v = TR_R(0.0);
   e.pad0 = TR_R(0.0);
-  if (tr_query_ray_valid(in)) {
-    TrRay ray = tr_query_ray(in);
-    TrNearest nearest;
-    nearest.t = in->tmax;
-    nearest.prim = -1;
-    if (tr_query_search(s, ray, in->tmin, in->mask, &nearest, 0)) {
-      TrHit hit;
-      tr_record_hit(s, ray, nearest, &hit);
-      /* The normal faces the side the ray comes from. */
-      int flip = tr_dot(hit.n, ray.d) > TR_R(0.0);
-      vec3 n = flip ? -hit.n : hit.n;
-      h.t = nearest.t;
-      h.nx = n.x;
-      h.ny = n.y;
-      h.nz = n.z;
-      h.object = hit.object;
-      h.primitive = tr_query_face(s, nearest.prim);
-      tr_query_surface_uv(s, ray, nearest, &hit, &h.u, &h.v);
-      if ((extra_flags & TR_QUERY_SHADING_NORMAL) != 0) {
-        vec3 ns = flip ? -hit.ns : hit.ns;
-        e.snx = ns.x;
-        e.sny = ns.y;
-        e.snz = ns.z;
-      }
-      if ((extra_flags & TR_QUERY_TEXTURE_UV) != 0) {
-        e.tex_u = hit.u;
-        e.tex_v = hit.v;
-      }
+  if (found) {
+    TrHit hit;
+    tr_record_hit(s, ray, nearest, &hit);
+    /* The normal faces the side the ray comes from. */
+    int flip = tr_dot(hit.n, ray.d) > TR_R(0.0);
+    vec3 n = flip ? -hit.n : hit.n;
+    h.t = nearest.t;
+    h.nx = n.x;
+    h.ny = n.y;
+    h.nz = n.z;
+    h.object = hit.object;
+    h.primitive = tr_query_face(s, nearest.prim);
+    tr_query_surface_uv(s, ray, nearest, &hit, &h.u, &h.v);
+    if ((extra_flags & TR_QUERY_SHADING_NORMAL) != 0) {
+      vec3 ns = flip ? -hit.ns : hit.ns;
+      e.snx = ns.x;
+      e.sny = ns.y;
+      e.snz = ns.z;
+    }
+    if ((extra_flags & TR_QUERY_TEXTURE_UV) != 0) {
+      e.tex_u = hit.u;
+      e.tex_v = hit.v;
     }
   }
   *out = h;
   if (extra_flags != 0) *extras = e;
+}
+
+/* The closest hit of *in into *out (TrQueryHit; a miss where there is none or the ray
+ * is not valid), and where extra_flags asks (TR_QUERY_*), the extras into *extras
+ * (fields not asked for are 0). */
+TR_FN void tr_query_intersect(const TrSceneRef* s, TR_GLOBAL const TrQueryRay* in,
+                              TR_GLOBAL TrQueryHit* out, TR_GLOBAL TrQueryExtras* extras,
+                              int extra_flags) {
+  TrRay ray = tr_query_ray(in);
+  TrNearest nearest;
+  nearest.t = in->tmax;
+  nearest.prim = -1;
+  int found = tr_query_ray_valid(in) && tr_query_search(s, ray, in->tmin, in->mask, &nearest, 0);
+  tr_query_write(s, ray, nearest, found, out, extras, extra_flags);
 }
 
 /* Whether anything lies on *in within [tmin, tmax] (t > 0): exactly when
@@ -193,4 +211,182 @@ TR_FN int tr_query_occluded(const TrSceneRef* s, TR_GLOBAL const TrQueryRay* in)
   limit.t = in->tmax;
   limit.prim = -1;
   return tr_query_search(s, tr_query_ray(in), in->tmin, in->mask, &limit, 1);
+}
+
+/* Ray queries in packets (the CPU backend; the OpenCL kernels answer a ray per
+ * work-item). A batch is taken in runs of TR_QUERY_RUN rays, whose valid rays with no
+ * zero component of direction are walked TR_PACKET_MAX at a time through the
+ * renderer's packet walk (bvh_packet.h, tr_packet_walk_masked) where their directions
+ * share their signs (tr_packet_begin); the others go alone, through tr_query_intersect
+ * or tr_query_occluded. Packets are made of consecutive rays; in a run where most rays
+ * start where the ray before them does (several rays from each point, as ambient
+ * occlusion casts them), of the rays of one octant of direction (the signs of its
+ * components) in the batch's order instead: rays from a few points in one octant share
+ * much of their walks, where rays from points spread apart (one diffuse ray per hit)
+ * walked 1.5-2.7 times as long in such packets as one by one
+ * (bench/ray_query_bench.cpp). The packet walk offers each ray exactly the leaves its
+ * own box test enters, and its leaves take hits by the query's own rule
+ * (tr_packet_query_offer, tr_packet_query_tie, and for lone rays tr_query_precedes);
+ * since that rule is a total order on (t, object, primitive) and the nearest hit's leaf
+ * is entered on any walk, each ray gets the answer of tr_query_intersect and
+ * tr_query_occluded, bit for bit, whichever rays share its packet. Only on 8-wide
+ * trees, the width the packet walk is compiled for (tr_packet_bvh). */
+
+/* The octant of a query ray's direction (bit 0: dx < 0, bit 1: dy < 0, bit 2: dz < 0),
+ * or -1 where the ray is not valid or a component of its direction is 0 (such a ray
+ * goes alone). */
+TR_FN_INLINE int tr_query_octant(TR_GLOBAL const TrQueryRay* r) {
+  if (!tr_query_ray_valid(r) || r->dx == TR_R(0.0) || r->dy == TR_R(0.0) || r->dz == TR_R(0.0))
+    return -1;
+  return (r->dx < TR_R(0.0) ? 1 : 0) | (r->dy < TR_R(0.0) ? 2 : 0) | (r->dz < TR_R(0.0) ? 4 : 0);
+}
+
+/* Puts the rays of in[0 .. m), m <= TR_QUERY_RUN, that have an octant into qp->order,
+ * in groups qp->order[qp->group_start[k] .. qp->group_start[k + 1]) for k < 8, each
+ * in the batch's order; qp->octant[i] is ray i's octant (-1: alone). The groups are the
+ * octants (a counting sort) where `by_octant` is 1, or where it is 2 and more than
+ * half of the rays start where the ray before them does; else group 0 holds them all.
+ * With by_octant -1 every ray goes alone. */
+TR_FN void tr_query_group_run(TrQueryPacket* qp, TR_GLOBAL const TrQueryRay* in, int m,
+                              int by_octant) {
+  int count[8];
+  for (int k = 0; k < 8; ++k) count[k] = 0;
+  int shared = 0;
+  for (int i = 0; i < m; ++i) {
+    int o = by_octant < 0 ? -1 : tr_query_octant(&in[i]);
+    qp->octant[i] = o;
+    if (o >= 0) ++count[o];
+    if (i > 0)
+      shared +=
+          (in[i].ox == in[i - 1].ox) & (in[i].oy == in[i - 1].oy) & (in[i].oz == in[i - 1].oz);
+  }
+  int sort = by_octant == 1 || (by_octant == 2 && 2 * shared > m);
+  if (!sort) {
+    for (int k = 1; k < 8; ++k) {
+      count[0] += count[k];
+      count[k] = 0;
+    }
+  }
+  qp->group_start[0] = 0;
+  for (int k = 0; k < 8; ++k) qp->group_start[k + 1] = qp->group_start[k] + count[k];
+  int next[8];
+  for (int k = 0; k < 8; ++k) next[k] = qp->group_start[k];
+  for (int i = 0; i < m; ++i)
+    if (qp->octant[i] >= 0) qp->order[next[sort ? qp->octant[i] : 0]++] = i;
+}
+
+/* Loads the rays in[pick[0 .. n)], n <= TR_PACKET_MAX, all valid, into the packet:
+ * ray, tmax (the nearest hit so far), tmin, mask and index in `in`, and returns n,
+ * where they all have one octant (qp->octant); else marks each of them to go alone
+ * (octant -1) and returns 0. */
+TR_FN int tr_query_packet_load(TrQueryPacket* qp, TR_GLOBAL const TrQueryRay* in, const int* pick,
+                               int n) {
+  TrRayPacket* pk = &qp->packet;
+  int same = 1;
+  for (int k = 1; k < n; ++k) same &= qp->octant[pick[k]] == qp->octant[pick[0]];
+  if (!same) {
+    for (int k = 0; k < n; ++k) qp->octant[pick[k]] = -1;
+    n = 0;
+  }
+  for (int k = 0; k < n; ++k) {
+    TR_GLOBAL const TrQueryRay* r = &in[pick[k]];
+    pk->ray[k] = tr_query_ray(r);
+    pk->t[k] = r->tmax;
+    pk->prim[k] = -1;
+    qp->lanes.tmin[k] = r->tmin;
+    qp->lanes.mask[k] = r->mask;
+    qp->index[k] = pick[k];
+  }
+  pk->n = n;
+  return n;
+}
+
+/* The BVH part of the loaded packet's queries: closest hit, each ray's nearest (t,
+ * primitive) in pk->t and pk->prim; any hit, pk->t[r] < 0 where ray r is blocked. As
+ * one packet where the rays are coherent (returns 1; rays of one octant are, but for an
+ * infinite reciprocal of a tiny component), else ray by ray (tr_bvh_walk_query, as
+ * tr_query_search walks it). */
+TR_FN_INLINE int tr_query_packet_bvh(const TrSceneRef* s, TrQueryPacket* qp, int any_hit) {
+  TrRayPacket* pk = &qp->packet;
+  if (pk->n <= 0) return 0;
+  if (tr_packet_begin(pk)) {
+    tr_mask64 active = pk->n >= 64 ? ~(tr_mask64)0 : ((tr_mask64)1 << pk->n) - 1;
+    tr_packet_walk_masked(s, pk, active, any_hit, 8, 1, &qp->lanes);
+    return 1;
+  }
+  for (int r = 0; r < pk->n; ++r) {
+    TrNearest nearest;
+    nearest.t = pk->t[r];
+    nearest.prim = pk->prim[r];
+    int blocked =
+        tr_bvh_walk_query(s, pk->ray[r], &nearest, any_hit, qp->lanes.tmin[r], qp->lanes.mask[r]) &&
+        any_hit;
+    pk->t[r] = blocked ? TR_R(-1.0) : nearest.t;
+    pk->prim[r] = nearest.prim;
+  }
+  return 0;
+}
+
+/* The answers of the rays in[0 .. n), in packets where the scene has an 8-wide BVH,
+ * grouped as tr_query_group_run groups them: closest hits into out[i] (and where
+ * extra_flags asks, extras[i]) as tr_query_intersect gives them, or with any_hit 1 (a
+ * constant) blocked[i] as tr_query_occluded does. Returns how many rays went through
+ * the packet walk. */
+TR_FN_INLINE int tr_query_rays(const TrSceneRef* s, TrQueryPacket* qp,
+                               TR_GLOBAL const TrQueryRay* in, int n, TR_GLOBAL TrQueryHit* out,
+                               TR_GLOBAL TrQueryExtras* extras, int extra_flags,
+                               TR_GLOBAL unsigned char* blocked, int any_hit, int by_octant) {
+  int walked = 0;
+  TrRayPacket* pk = &qp->packet;
+  for (int at = 0; at < n; at += TR_QUERY_RUN) {
+    int m = n - at < TR_QUERY_RUN ? n - at : TR_QUERY_RUN;
+    TR_GLOBAL const TrQueryRay* run = in + at;
+    tr_query_group_run(qp, run, m, tr_use(s, TR_F_BVH8) ? by_octant : -1);
+    for (int k = 0; k < 8; ++k)
+      for (int j = qp->group_start[k]; j < qp->group_start[k + 1]; j += TR_PACKET_MAX) {
+        int end = qp->group_start[k + 1];
+        tr_query_packet_load(qp, run, &qp->order[j],
+                             end - j < TR_PACKET_MAX ? end - j : TR_PACKET_MAX);
+        if (tr_query_packet_bvh(s, qp, any_hit)) walked += pk->n;
+        for (int r = 0; r < pk->n; ++r) {
+          int i = at + qp->index[r];
+          TrNearest nearest;
+          nearest.t = pk->t[r];
+          nearest.prim = any_hit ? -1 : pk->prim[r];
+          int b = (any_hit && pk->t[r] < TR_R(0.0)) ||
+                  tr_query_planes(s, pk->ray[r], qp->lanes.tmin[r], qp->lanes.mask[r], &nearest,
+                                  any_hit);
+          if (any_hit)
+            blocked[i] = (unsigned char)(b ? 1 : 0);
+          else
+            tr_query_write(s, pk->ray[r], nearest, nearest.prim >= 0, &out[i],
+                           extra_flags != 0 ? &extras[i] : extras, extra_flags);
+        }
+      }
+    for (int i = 0; i < m; ++i) {
+      if (qp->octant[i] >= 0) continue;
+      if (any_hit)
+        blocked[at + i] = (unsigned char)(tr_query_occluded(s, &run[i]) ? 1 : 0);
+      else
+        tr_query_intersect(s, &run[i], &out[at + i], extra_flags != 0 ? &extras[at + i] : extras,
+                           extra_flags);
+    }
+  }
+  return walked;
+}
+
+/* tr_query_intersect for each of the rays in[0 .. n), in packets (tr_query_rays; by_octant:
+ * 0 never by octant, 1 always, 2 where rays share their origins). */
+TR_FN int tr_query_intersect_rays(const TrSceneRef* s, TrQueryPacket* qp,
+                                  TR_GLOBAL const TrQueryRay* in, int n, TR_GLOBAL TrQueryHit* out,
+                                  TR_GLOBAL TrQueryExtras* extras, int extra_flags, int by_octant) {
+  return tr_query_rays(s, qp, in, n, out, extras, extra_flags, 0, 0, by_octant);
+}
+
+/* tr_query_occluded for each of the rays in[0 .. n) into blocked[i] (1 or 0), in
+ * packets as tr_query_intersect_rays. */
+TR_FN int tr_query_occluded_rays(const TrSceneRef* s, TrQueryPacket* qp,
+                                 TR_GLOBAL const TrQueryRay* in, int n,
+                                 TR_GLOBAL unsigned char* blocked, int by_octant) {
+  return tr_query_rays(s, qp, in, n, 0, 0, 0, blocked, 1, by_octant);
 }

@@ -239,6 +239,23 @@ typedef struct TR_ALIGNED(TR_LINE_BYTES) TrRayPacket {
   TrSlabRows rows; /* shared: every ray's direction has the same signs */
 } TrRayPacket;
 
+/* What a packet of ray queries adds to the renderer's packet (ray_query.h): each ray's
+ * tmin and mask, one array each (read a ray per SIMD lane by the leaves' tests), and
+ * the index of each ray in the caller's run of rays. */
+typedef struct TR_ALIGNED(TR_LINE_BYTES) TrQueryLanes {
+  real tmin[TR_PACKET_MAX];
+  unsigned int mask[TR_PACKET_MAX];
+} TrQueryLanes;
+#define TR_QUERY_RUN 256 /* rays grouped by octant at a time (ray_query.h) */
+typedef struct TrQueryPacket {
+  TrRayPacket packet;
+  TrQueryLanes lanes;
+  int index[TR_PACKET_MAX];
+  /* The run's rays in packet order: each ray's octant (-1: alone), the order, and where
+   * each group of rays starts in it (tr_query_group_run). */
+  int octant[TR_QUERY_RUN], order[TR_QUERY_RUN], group_start[9];
+} TrQueryPacket;
+
 /* A point light as shading sees it from a hit (shading.h): where it is, the
  * irradiance it brings, the unit direction l to it and n.l; which terms it adds. */
 #define TR_LIGHT_NONE 0    /* the hit is at the light: no term */

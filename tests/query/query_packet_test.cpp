@@ -1,0 +1,291 @@
+// Ray queries in packets (device/ray_query.h, tr_query_intersect_rays and
+// tr_query_occluded_rays; cpu::QueryWalk): the CPU walks runs of consecutive rays whose
+// directions share their signs as one packet, and each ray must get the very bytes the
+// single-ray walk gives it, for any tmin, tmax and mask, on ties, from inside spheres,
+// with bad rays among good ones and for batch sizes that are not whole packets. Each
+// case also checks that most of its rays did go through the packet walk.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include <twinray/backend/cpu.hpp>
+#include <twinray/twinray.hpp>
+
+#include "query/query_scenes.hpp"
+
+using namespace twinray;
+using query_test::vec3;
+
+namespace {
+
+template <class T>
+PackedScene<T> packed8(const Scene<T>& scene) {
+  PackOptions o;
+  o.bvh = BvhPolicy::Always;
+  o.bvh_width = 8;
+  return pack_scene(scene, o);
+}
+
+// Answers of both walks for rays[0 .. n) in batches of `batch`: hits (with extras) and
+// occluded's, and how many rays the packet walk took.
+template <class T>
+struct Answers {
+  std::vector<Hit<T>> hits;
+  std::vector<HitExtra<T>> extras;
+  std::vector<uint8_t> blocked;
+  size_t walked = 0;
+};
+
+template <class T>
+Answers<T> answers(const PackedScene<T>& ps, const std::vector<Ray<T>>& rays, cpu::QueryWalk walk,
+                   size_t batch) {
+  Answers<T> a;
+  const size_t n = rays.size();
+  a.hits.assign(n, Hit<T>{});
+  a.extras.assign(n, HitExtra<T>{});
+  a.blocked.assign(n, 7);
+  for (size_t at = 0; at < n; at += batch) {
+    const size_t m = std::min(batch, n - at);
+    a.walked += cpu::query_intersect(ps, rays.data() + at, m, a.hits.data() + at,
+                                     TR_QUERY_SHADING_NORMAL | TR_QUERY_TEXTURE_UV,
+                                     a.extras.data() + at, walk);
+    a.walked += cpu::query_occluded(ps, rays.data() + at, m, a.blocked.data() + at, walk);
+  }
+  return a;
+}
+
+// The number of rays whose packet answers differ from the single-ray walk's, in any
+// byte of the hit, the extras or occluded's answer, for each way of making packets and
+// over several batch sizes (none a whole number of packets but 64 and 256); also checks
+// that the packet walk took at least `min_walked` of each batch's rays (both queries
+// counted).
+template <class T>
+size_t differences(const PackedScene<T>& ps, const std::vector<Ray<T>>& rays, double min_walked) {
+  const Answers<T> one = answers(ps, rays, cpu::QueryWalk::RayByRay, rays.size());
+  CHECK(one.walked == 0);
+  size_t wrong = 0;
+  for (cpu::QueryWalk walk :
+       {cpu::QueryWalk::Packets, cpu::QueryWalk::PacketsInOrder, cpu::QueryWalk::PacketsByOctant})
+    for (size_t batch :
+         {rays.size(), size_t(1), size_t(37), size_t(64), size_t(65), size_t(256), size_t(1000)}) {
+      CAPTURE(static_cast<int>(walk));
+      CAPTURE(batch);
+      const Answers<T> pk = answers(ps, rays, walk, batch);
+      if (batch >= 37) CHECK(double(pk.walked) >= min_walked * 2.0 * double(rays.size()));
+      for (size_t i = 0; i < rays.size(); ++i)
+        wrong += std::memcmp(&pk.hits[i], &one.hits[i], sizeof(Hit<T>)) != 0 ||
+                 std::memcmp(&pk.extras[i], &one.extras[i], sizeof(HitExtra<T>)) != 0 ||
+                 pk.blocked[i] != one.blocked[i];
+    }
+  return wrong;
+}
+
+// Rays from `eye` through a grid of points on the rectangle [lo, hi] of the plane z =
+// plane_z, row by row: with eye above the rectangle on every axis, every direction has
+// the signs (-, -, -), so every run of rays is a coherent packet.
+template <class T>
+std::vector<Ray<T>> grid_rays(vec3<T> eye, vec3<T> lo, vec3<T> hi, int nx, int ny) {
+  std::vector<Ray<T>> rays;
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const vec3<T> p(lo.x + (hi.x - lo.x) * (T(i) + T(0.5)) / T(nx),
+                      lo.y + (hi.y - lo.y) * (T(j) + T(0.5)) / T(ny), lo.z);
+      rays.push_back(make_ray<T>(eye, p - eye));
+    }
+  return rays;
+}
+
+template <class T>
+size_t count_hits(const PackedScene<T>& ps, const std::vector<Ray<T>>& rays) {
+  std::vector<Hit<T>> h(rays.size());
+  cpu::query_intersect(ps, rays.data(), rays.size(), h.data(), 0, nullptr);
+  size_t found = 0;
+  for (const auto& x : h) found += x.object >= 0;
+  return found;
+}
+
+}  // namespace
+
+TEST_CASE_TEMPLATE("packets give each ray the single-ray walk's answer: intervals and masks", T,
+                   float, double) {
+  // The mixed scene (spheres, lone triangles, meshes with normals and uvs, a plane, a
+  // duplicated triangle) with a mask on every object: object k's is 1 << (k % 3).
+  Scene<T> s = query_test::mixed_scene<T>(5u, 200);
+  for (size_t k = 0; k < s.objects.size(); ++k)
+    std::visit([&](auto& o) { o.mask = 1u << (k % 3); }, s.objects[k]);
+  const PackedScene<T> ps = packed8(s);
+  REQUIRE((ps.features & TR_F_MASKS) != 0u);
+  REQUIRE((ps.features & TR_F_BVH8) != 0u);
+  std::vector<Ray<T>> rays =
+      grid_rays<T>(vec3<T>(9, 8, 10), vec3<T>(-7, -7, -7), vec3<T>(6, 5, -7), 122, 106);
+  std::mt19937 rng(4u);
+  std::uniform_real_distribution<double> f(0.0, 1.0);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    auto& r = rays[i];
+    // t counts lengths of d: the rays reach the far side of the scene at t = 1.
+    const T reach = T(1.25) * T(f(rng));
+    switch ((i / 64) % 5) {  // one kind of interval for a packet's rays
+      case 0:
+        break;  // [0, inf)
+      case 1:
+        r.tmin = reach * T(0.5);
+        break;  // from past the front
+      case 2:
+        r.tmax = reach * T(0.5);
+        break;  // short
+      case 3:
+        r.tmin = reach * T(0.7), r.tmax = r.tmin + T(0.05);
+        break;
+      default:
+        r.tmin = -reach, r.tmax = reach * T(0.6);
+        break;  // negative tmin
+    }
+    r.mask = (i / 3) % 4 == 0 ? 0xffffffffu : 1u << ((i / 7) % 4);  // 8: sees nothing
+  }
+  // Many rays find something (with short intervals and masks, not most), and most do
+  // not.
+  const size_t found = count_hits(ps, rays);
+  CHECK(found > rays.size() / 6);
+  CHECK(found < rays.size() * 9 / 10);
+  CHECK(differences(ps, rays, 0.9) == 0);
+}
+
+TEST_CASE_TEMPLATE("packets give each ray the single-ray walk's answer: ties", T, float, double) {
+  // Rays at every vertex and along every edge of a closed mesh hit two or more faces at
+  // the same t; the same mesh again as a later object, and the faces of a mesh twice,
+  // tie on every hit; two coincident spheres tie where they are hit.
+  Scene<T> s;
+  s.materials.push_back({});
+  const Mesh<T> ball = query_test::icosphere<T>(2, vec3<T>(0, 0, 0), T(2));
+  s.add(ball);  // object 0
+  Mesh<T> twice = ball;
+  const size_t faces = twice.triangles.size();
+  for (size_t i = 0; i < faces; ++i) twice.triangles.push_back(twice.triangles[i]);
+  s.add(twice);                                     // object 1: every face twice
+  s.add(Sphere<T>{vec3<T>(-4, 1, -1), T(1.5), 0});  // object 2
+  s.add(Sphere<T>{vec3<T>(-4, 1, -1), T(1.5), 0});  // object 3, the same sphere
+  s.add(ball);                                      // object 4
+  const PackedScene<T> ps = packed8(s);
+  const vec3<T> eye(12, 14, 16);
+  std::vector<Ray<T>> rays;
+  std::vector<vec3<T>> targets = ball.vertices;
+  for (auto e : query_test::edges(ball)) {
+    const vec3<T> a = ball.vertices[e.first], b = ball.vertices[e.second];
+    targets.push_back((a + b) * T(0.5));
+    targets.push_back(a + (b - a) * T(0.25));
+  }
+  for (const auto& p : targets) rays.push_back(make_ray<T>(eye, p - eye));  // t = 1 at p
+  for (const auto& r : grid_rays<T>(eye, vec3<T>(-6, -1, -1), vec3<T>(-2, 3, -1), 24, 24))
+    rays.push_back(r);
+  // Intervals that end or start at exactly the tie: tmax = 1 and tmin = 1 at the targets.
+  const size_t n_targets = targets.size();
+  for (size_t i = 0; i < n_targets; ++i) {
+    Ray<T> r = rays[i];
+    r.tmax = T(1);
+    rays.push_back(r);
+    r.tmin = T(1);
+    r.tmax = T(INFINITY);
+    rays.push_back(r);
+  }
+  std::vector<Hit<T>> h(rays.size());
+  cpu::query_intersect(ps, rays.data(), rays.size(), h.data(), 0, nullptr);
+  size_t on_ball = 0, on_spheres = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    on_ball += h[i].object == 0;
+    on_spheres += h[i].object == 2;
+    CHECK(h[i].object != 1);  // the lower object wins every tie
+    CHECK(h[i].object != 3);
+    CHECK(h[i].object != 4);
+  }
+  CHECK(on_ball > n_targets);
+  CHECK(on_spheres > 200);
+  CHECK(differences(ps, rays, 0.9) == 0);
+}
+
+TEST_CASE_TEMPLATE("packets give each ray the single-ray walk's answer: from inside spheres", T,
+                   float, double) {
+  // Origins inside spheres: the hit is where the ray leaves, or with tmin past that, the
+  // next sphere; tmin inside a sphere entered earlier gives its far side.
+  Scene<T> s;
+  s.materials.push_back({});
+  std::mt19937 rng(12u);
+  std::uniform_real_distribution<double> u(-4.0, 4.0), rad(0.3, 1.2);
+  for (int i = 0; i < 150; ++i) s.add(Sphere<T>{query_test::draw3<T>(u, rng), T(rad(rng)), 0});
+  s.add(Sphere<T>{vec3<T>(0, 0, 0), T(1), 0});
+  const PackedScene<T> ps = packed8(s);
+  std::vector<Ray<T>> rays;
+  std::uniform_real_distribution<double> small(0.05, 0.5), jitter(-0.2, 0.2);
+  for (int i = 0; i < 4000; ++i) {
+    // From near the centre of the last sphere, directions with signs (+, +, -).
+    const vec3<T> o = query_test::draw3<T>(jitter, rng);
+    const vec3<T> d(T(small(rng)), T(small(rng)), -T(small(rng)));
+    T tmin = i % 3 == 0 ? T(0) : T(small(rng)) * T(i % 3 * 4);
+    rays.push_back(make_ray<T>(o, d, tmin));
+  }
+  const size_t found = count_hits(ps, rays);
+  CHECK(found > rays.size() / 2);
+  CHECK(differences(ps, rays, 0.9) == 0);
+}
+
+TEST_CASE_TEMPLATE("packets give each ray the single-ray walk's answer: bad rays among good ones",
+                   T, float, double) {
+  // Every seventh ray bad (each kind in turn); in a second batch also one ray in every
+  // three packets with its direction's sign flipped on one axis (its packet then goes
+  // ray by ray): the good rays of a packet keep their answers, the bad ones are misses.
+  const Scene<T> s = query_test::mixed_scene<T>(8u, 100);
+  const PackedScene<T> ps = packed8(s);
+  std::vector<Ray<T>> rays =
+      grid_rays<T>(vec3<T>(-9, 9, 11), vec3<T>(-5, -6, -6), vec3<T>(6, 5, -6), 47, 47);
+  // Every direction has the signs (+, -, -).
+  const T inf = std::numeric_limits<T>::infinity(), nan = std::numeric_limits<T>::quiet_NaN();
+  for (size_t i = 0; i < rays.size(); i += 7) {
+    auto& r = rays[i];
+    switch ((i / 7) % 8) {
+      case 0:
+        r.dx = r.dy = r.dz = T(0);
+        break;
+      case 1:
+        r.dy = nan;
+        break;
+      case 2:
+        r.dz = -inf;
+        break;
+      case 3:
+        r.ox = nan;
+        break;
+      case 4:
+        r.tmin = T(3), r.tmax = T(2);
+        break;
+      case 5:
+        r.tmax = T(-1), r.tmin = T(-2);
+        break;
+      case 6:
+        r.tmin = nan;
+        break;
+      default:
+        r.tmax = nan;
+        break;
+    }
+  }
+  const size_t n_bad = (rays.size() + 6) / 7;
+  std::vector<Ray<T>> mixed = rays;
+  for (size_t i = 5; i < mixed.size(); i += 3 * 64 + 1) mixed[i].dz = -mixed[i].dz;
+  std::vector<Hit<T>> h(rays.size());
+  std::vector<uint8_t> blocked(rays.size());
+  cpu::query_intersect(ps, rays.data(), rays.size(), h.data(), 0, nullptr);
+  cpu::query_occluded(ps, rays.data(), rays.size(), blocked.data());
+  for (size_t i = 0; i < rays.size(); i += 7) {
+    CHECK(h[i].object == -1);
+    CHECK(blocked[i] == 0);
+  }
+  CHECK(count_hits(ps, rays) > rays.size() / 4);
+  // Of the good rays, nine in ten go through the packet walk; with the flipped rays
+  // somewhat fewer.
+  const double good = double(rays.size() - n_bad) / double(rays.size());
+  CHECK(differences(ps, rays, 0.9 * good) == 0);
+  CHECK(differences(ps, mixed, 0.6 * good) == 0);
+}
