@@ -99,7 +99,12 @@ NB_MODULE(_core, m) {
       .def(nb::init<>())
       .def_rw("position", &LightSpec::position)
       .def_rw("intensity", &LightSpec::intensity)
-      .def_rw("color", &LightSpec::color);
+      .def_rw("color", &LightSpec::color)
+      .def_rw("shape", &LightSpec::shape)
+      .def_rw("edge1", &LightSpec::edge1)
+      .def_rw("edge2", &LightSpec::edge2)
+      .def_rw("radius", &LightSpec::radius)
+      .def_rw("samples", &LightSpec::samples);
 
   nb::class_<RenderSpec>(m, "RenderSpec")
       .def(nb::init<>())
@@ -189,6 +194,10 @@ NB_MODULE(_core, m) {
       .def_prop_rw(
           "background", [](const NativeScene& s) { return from_vec(s.background()); },
           [](NativeScene& s, const Vec3& c) { s.set_background(dvec(c)); })
+      .def("set_environment",
+           [](NativeScene& s, const std::string& path, double rotate_degrees, double intensity,
+              const Vec3& up) { s.set_environment(path, rotate_degrees, intensity, dvec(up)); })
+      .def_prop_ro("environment_file", &NativeScene::environment_file)
       .def_prop_ro("material_count", &NativeScene::material_count)
       .def_prop_ro("object_count", &NativeScene::object_count)
       .def_prop_ro("version", &NativeScene::version)

@@ -161,6 +161,26 @@ class NativeScene {
   }
   glm::dvec3 background() const { return background_; }
 
+  // An environment image (PNG, JPEG or Radiance HDR), read now to check it and again in
+  // the tracer's precision; an empty path removes the environment.
+  void set_environment(const std::string& path, double rotate_degrees, double intensity,
+                       const glm::dvec3& up) {
+    EnvironmentStep step{path, rotate_degrees, intensity, up};
+    if (!path.empty()) {
+      twinray::Scene<double> check;
+      check.environment = step.placed(check, twinray::io::load_environment<double>(path));
+      twinray::validate_environment(check);
+    }
+    environment_ = step;
+    bump();
+  }
+  // The environment set here, or the file's (path empty where there is none).
+  std::string environment_file() const {
+    if (environment_) return environment_->path;
+    const auto& e = file_.scene.environment;
+    return e.enabled() ? file_.scene.textures[static_cast<size_t>(e.texture)].name : "";
+  }
+
   // The scene file as read in double: its camera, lights and render options.
   const twinray::io::SceneFile<double>& file() const { return file_; }
   size_t material_count() const { return materials_; }
@@ -176,6 +196,11 @@ class NativeScene {
     if (!path_.empty()) scene = twinray::io::load_scene<T>(path_).scene;
     scene.lights.clear();  // Python passes the lights with each render
     scene.background = rounded<T>(background_);
+    if (environment_)
+      scene.environment = environment_->path.empty()
+                              ? twinray::Environment<T>{}
+                              : environment_->placed(
+                                    scene, twinray::io::load_environment<T>(environment_->path));
     for (const Step& step : steps_) {
       if (auto* m = std::get_if<Material<double>>(&step)) {
         scene.add_material(rounded<T>(*m));
@@ -208,6 +233,23 @@ class NativeScene {
  private:
   using Step = std::variant<Material<double>, ObjectStep, ObjFileStep>;
 
+  struct EnvironmentStep {
+    std::string path;
+    double rotate_degrees = 0, intensity = 1;
+    glm::dvec3 up{0.0, 1.0, 0.0};
+
+    // The environment of `texture`, added to the scene.
+    template <class T>
+    twinray::Environment<T> placed(twinray::Scene<T>& scene, twinray::Texture<T> texture) const {
+      twinray::Environment<T> e;
+      e.texture = scene.add_texture(std::move(texture));
+      e.rotate_degrees = static_cast<T>(rotate_degrees);
+      e.intensity = static_cast<T>(intensity);
+      e.up = glm::vec<3, T>(up);
+      return e;
+    }
+  };
+
   void bump() {
     static std::atomic<long long> next{1};
     version_ = next++;
@@ -219,6 +261,7 @@ class NativeScene {
   size_t materials_ = 0, objects_ = 0;
   int default_material_ = -1;
   glm::dvec3 background_{0.0, 0.0, 0.0};
+  std::optional<EnvironmentStep> environment_;  // set by set_environment
   long long version_ = 0;
 };
 

@@ -72,8 +72,8 @@ class NativeTracer {
     o.log = [this](const std::string& note) { notes_.push_back(note); };
     spec.apply(o);
     twinray::Camera<T> cam = camera.as<T>();
-    std::vector<twinray::PointLight<T>> lit;
-    for (const LightSpec& l : lights) lit.push_back(l.as<T>());
+    std::vector<twinray::Light<T>> lit;
+    for (size_t i = 0; i < lights.size(); ++i) lit.push_back(lights[i].as<T>(i));
     twinray::validate(cam);
     twinray::validate_lights(lit);
     twinray::validate(o);

@@ -11,6 +11,7 @@
 #include <twinray/core/options.hpp>
 #include <twinray/scene/camera.hpp>
 #include <twinray/scene/light.hpp>
+#include <twinray/scene/validate.hpp>
 
 namespace twinray_python {
 
@@ -66,20 +67,46 @@ struct CameraSpec {
   }
 };
 
+// shape: "point", "rect" (position is the corner) or "sphere" (position is the center).
 struct LightSpec {
   Vec3 position{0, 0, 0};
   double intensity = 1;
   Vec3 color{1, 1, 1};
+  std::string shape = "point";
+  Vec3 edge1{0, 0, 0}, edge2{0, 0, 0};
+  double radius = 0;
+  int samples = 1;
 
-  static LightSpec from(const twinray::PointLight<double>& l) {
-    return {from_vec(l.position), l.intensity, from_vec(l.color)};
+  static LightSpec from(const twinray::Light<double>& l) {
+    LightSpec s{from_vec(l.position), l.intensity, from_vec(l.color)};
+    s.shape = l.shape == twinray::LightShape::Rect     ? "rect"
+              : l.shape == twinray::LightShape::Sphere ? "sphere"
+                                                       : "point";
+    s.edge1 = from_vec(l.edge1);
+    s.edge2 = from_vec(l.edge2);
+    s.radius = l.radius;
+    s.samples = l.samples;
+    return s;
   }
+  // Throws InvalidInput for an unknown shape; the rest is checked with the render.
   template <class T>
-  twinray::PointLight<T> as() const {
-    twinray::PointLight<T> l;
+  twinray::Light<T> as(size_t i) const {
+    twinray::Light<T> l;
     l.position = as_vec<T>(position);
     l.intensity = static_cast<T>(intensity);
     l.color = as_vec<T>(color);
+    if (shape == "rect")
+      l.shape = twinray::LightShape::Rect;
+    else if (shape == "sphere")
+      l.shape = twinray::LightShape::Sphere;
+    else if (shape != "point")
+      throw twinray::invalid_input(twinray::detail::at("lights", i) +
+                                   ".shape: must be \"point\", \"rect\" or \"sphere\", got \"" +
+                                   shape + "\"");
+    l.edge1 = as_vec<T>(edge1);
+    l.edge2 = as_vec<T>(edge2);
+    l.radius = static_cast<T>(radius);
+    l.samples = samples;
     return l;
   }
 };

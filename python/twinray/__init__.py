@@ -77,10 +77,14 @@ def _rows(name: str, value: Any, dtype: Any, columns: int = 3) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=dtype)
 
 
-def _index(name: str, value: Any) -> int:
+def _index(name: str, value: Any, what: str = "an integer index") -> int:
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        raise ValueError(f"{name}: must be an integer index, got {value!r}")
+        raise ValueError(f"{name}: must be {what}, got {value!r}")
     return int(value)
+
+
+def _count(name: str, value: Any) -> int:
+    return _index(name, value, "an integer")
 
 
 def _mask(value: Any) -> int:
@@ -143,17 +147,31 @@ class Camera:
 
 @dataclass
 class Light:
-    """An isotropic point light: irradiance intensity x color / d^2 at distance d."""
+    """A light. shape "point": an isotropic point light at `position`, irradiance
+    intensity x color / d^2 at distance d. "rect" (corner `position`, edges `edge1`,
+    `edge2`) and "sphere" (center `position`, `radius`): area lights, seen by shading
+    as samples x samples point lights of 1/samples^2 of the intensity each, placed
+    anew in every path (soft shadows)."""
 
     position: Vector = (0.0, 0.0, 0.0)
     intensity: float = 1.0
     color: Vector = (1.0, 1.0, 1.0)
+    shape: str = "point"
+    edge1: Vector = (0.0, 0.0, 0.0)
+    edge2: Vector = (0.0, 0.0, 0.0)
+    radius: float = 0.0
+    samples: int = 1
 
     def _native(self, i: int) -> "_core.Light":
         light = _core.Light()
         light.position = _vec3(f"lights[{i}].position", self.position)
         light.intensity = float(self.intensity)
         light.color = _vec3(f"lights[{i}].color", self.color)
+        light.shape = str(self.shape)
+        light.edge1 = _vec3(f"lights[{i}].edge1", self.edge1)
+        light.edge2 = _vec3(f"lights[{i}].edge2", self.edge2)
+        light.radius = float(self.radius)
+        light.samples = _count(f"lights[{i}].samples", self.samples)
         return light
 
 
@@ -180,7 +198,8 @@ class Scene:
         scene._scene.load(os.fspath(path))
         scene.camera = Camera._from_native(scene._scene.file_camera)
         scene.lights = [
-            Light(tuple(l.position), l.intensity, tuple(l.color)) for l in scene._scene.file_lights
+            Light(tuple(l.position), l.intensity, tuple(l.color), l.shape, tuple(l.edge1),
+                  tuple(l.edge2), l.radius, l.samples) for l in scene._scene.file_lights
         ]
         for w in scene._scene.file_warnings:
             warnings.warn(w, stacklevel=2)
@@ -253,6 +272,37 @@ class Scene:
         self.lights.append(Light(_vec3("position", position), float(intensity),
                                  _vec3("color", color)))
         return len(self.lights) - 1
+
+    def add_rect_light(self, corner: Vector, edge1: Vector, edge2: Vector,
+                       intensity: float = 1.0, color: Vector = (1.0, 1.0, 1.0),
+                       samples: int = 4) -> int:
+        """A rectangular area light: corner + x edge1 + y edge2 for x, y in [0, 1], with
+        samples x samples shadow samples. Returns its index in `lights`."""
+        self.lights.append(Light(_vec3("corner", corner), float(intensity), _vec3("color", color),
+                                 "rect", _vec3("edge1", edge1), _vec3("edge2", edge2), 0.0,
+                                 _count("samples", samples)))
+        return len(self.lights) - 1
+
+    def add_sphere_light(self, center: Vector, radius: float, intensity: float = 1.0,
+                         color: Vector = (1.0, 1.0, 1.0), samples: int = 4) -> int:
+        """A spherical area light with samples x samples shadow samples. Returns its
+        index in `lights`."""
+        self.lights.append(Light(_vec3("center", center), float(intensity), _vec3("color", color),
+                                 "sphere", radius=float(radius), samples=_count("samples", samples)))
+        return len(self.lights) - 1
+
+    def set_environment(self, path: Optional[PathLike], rotate_degrees: float = 0.0,
+                        intensity: float = 1.0, up: Vector = (0.0, 1.0, 0.0)) -> None:
+        """An equirectangular image (PNG, JPEG or Radiance HDR) that rays which hit
+        nothing see instead of the background, its top row toward `up`; it does not
+        light the scene. None removes it."""
+        self._scene.set_environment("" if path is None else os.fspath(path),
+                                    float(rotate_degrees), float(intensity), _vec3("up", up))
+
+    @property
+    def environment_file(self) -> Optional[str]:
+        """The environment image's file (set here or by the scene file), or None."""
+        return self._scene.environment_file or None
 
     @property
     def background(self) -> Tuple[float, float, float]:

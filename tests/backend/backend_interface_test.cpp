@@ -179,7 +179,7 @@ TEST_CASE("backend: bad requests are refused before anything renders") {
     bad.adaptive_spp = 1;  // not more than spp
     CHECK_THROWS_WITH_AS(renderer->render({d.camera, d.scene.lights, bad}),
                          doctest::Contains("render.adaptive.spp"), Error);
-    std::vector<PointLight<float>> dark = d.scene.lights;
+    std::vector<Light<float>> dark = d.scene.lights;
     dark[0].intensity = -1;
     CHECK_THROWS_WITH_AS(renderer->render({d.camera, dark, RenderOptions{}}),
                          doctest::Contains("lights[0].intensity"), Error);

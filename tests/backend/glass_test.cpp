@@ -176,7 +176,7 @@ TEST_CASE_TEMPLATE("a glass shadow passes the transmission of each surface it cr
       Material<T> m = blocker_kind == 1 ? white : glass<T>(T(1.5), T(0.6));
       scene.add(Sphere<T>{vec3<T>(0, 2, 0), T(0.5), scene.add_material(m)});
     }
-    scene.add_light(twinray::PointLight<T>{vec3<T>(0, 5, 0), T(25), vec3<T>(1)});
+    scene.add_light(twinray::Light<T>{vec3<T>(0, 5, 0), T(25), vec3<T>(1)});
     Camera<T> camera;
     camera.position = vec3<T>(0, 1, 5);
     camera.look_at = vec3<T>(0, 0, 0);

@@ -26,7 +26,8 @@ struct ShadeFixture {
   typename Code<T>::SceneRef ref{};
 
   ShadeFixture(vec3<T> light_pos, T intensity, unsigned features) {
-    light = {light_pos.x, light_pos.y, light_pos.z, intensity, intensity, intensity};
+    light.px = light_pos.x, light.py = light_pos.y, light.pz = light_pos.z;
+    light.r = light.g = light.b = intensity;
     params.n_lights = 1;
     params.features = static_cast<int>(features);
     ref.params = &params;
@@ -48,7 +49,7 @@ struct ShadeFixture {
     hit.shadow_p = hit.p;
     hit.shadow_perr = hit.perr;
     hit.material = 0;
-    return K<T>::tr_shade(&ref, &hit, vec3<T>(0, 0, -1));
+    return K<T>::tr_shade(&ref, &hit, vec3<T>(0, 0, -1), 0u);
   }
 };
 

@@ -19,7 +19,7 @@ template <class T>
 struct Case {
   twinray::PackedScene<T> ps;
   twinray::Camera<T> camera;
-  std::vector<twinray::PointLight<T>> lights;
+  std::vector<twinray::Light<T>> lights;
   twinray::RenderOptions options;
 };
 

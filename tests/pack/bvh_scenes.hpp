@@ -34,8 +34,8 @@ twinray::Scene<T> random_scene(int n_spheres, int n_triangles, uint32_t seed, bo
     scene.add(t);
   }
   if (plane) scene.add(twinray::Plane<T>{vec3(0, 2, 0), vec3(0, -1, 0), 3});
-  scene.add_light(twinray::PointLight<T>{vec3(-2, -4, 2), T(30), vec3(1, 1, 1)});
-  scene.add_light(twinray::PointLight<T>{vec3(3, -3, 0), T(10), vec3(1, 0.8, 0.6)});
+  scene.add_light(twinray::Light<T>{vec3(-2, -4, 2), T(30), vec3(1, 1, 1)});
+  scene.add_light(twinray::Light<T>{vec3(3, -3, 0), T(10), vec3(1, 0.8, 0.6)});
   scene.background = vec3(T(0.1), T(0.1), T(0.2));
   return scene;
 }

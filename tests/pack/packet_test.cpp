@@ -381,7 +381,7 @@ void check_images() {
     ortho.projection = twinray::Projection::Orthographic;
     check({ortho, scene.lights, options});
     check({bvh_test::test_camera<T>(64, 48), scene.lights, options, {13, 7, 27, 19}});
-    std::vector<twinray::PointLight<T>> many;  // 34 lights, more than a 32-bit mask holds
+    std::vector<twinray::Light<T>> many;  // 34 lights, more than a 32-bit mask holds
     for (int i = 0; i < 34; ++i)
       many.push_back(
           {vec3<T>(T(-4 + 0.25 * i), T(-3 - 0.05 * i), T(2 - 0.1 * i)), T(1), vec3<T>(1, 1, 1)});

@@ -383,7 +383,7 @@ Figures case_acne(Ctx& ctx, Shape shape, double scale, double offset_sizes, int 
       break;
   }
   T intensity = shape == Shape::InsideSphere ? T(0.3) : T(10);  // exposure: E ~ 0.3..1
-  scene.add_light(twinray::PointLight<T>{light, intensity * s * s, V3<T>(1, 1, 1)});
+  scene.add_light(twinray::Light<T>{light, intensity * s * s, V3<T>(1, 1, 1)});
   twinray::RenderOptions o;
   o.max_depth = 1;
   o.glaze = false;
@@ -564,7 +564,7 @@ Figures case_tiny_far_sphere(Ctx& ctx, double distance) {
   int mat = scene.add_material(material<T>(T(0.8), T(0.8), T(0.8)));
   V3<T> c(T(0.013), T(-0.021), T(-distance));
   scene.add(twinray::Sphere<T>{c, T(1), mat});
-  scene.add_light(twinray::PointLight<T>{V3<T>(T(-distance), T(distance), T(0)),
+  scene.add_light(twinray::Light<T>{V3<T>(T(-distance), T(distance), T(0)),
                                          T(distance * distance), V3<T>(1, 1, 1)});
   twinray::Camera<T> cam;
   cam.projection = twinray::Projection::Orthographic;
@@ -638,7 +638,7 @@ Figures case_huge_sphere(Ctx& ctx) {
   int mat = scene.add_material(material<T>(T(0.3), T(0.7), T(0.3)));
   V3<T> c(0, -R, 0);
   scene.add(twinray::Sphere<T>{c, R, mat});
-  scene.add_light(twinray::PointLight<T>{V3<T>(T(3), T(50), T(-20)), T(1200), V3<T>(1, 1, 1)});
+  scene.add_light(twinray::Light<T>{V3<T>(T(3), T(50), T(-20)), T(1200), V3<T>(1, 1, 1)});
   twinray::Camera<T> cam =
       perspective<T>(V3<T>(0, 1, 0), V3<T>(T(0), T(0.8), T(-4)), V3<T>(0, 1, 0), T(3), 64, 48);
   Figures f;
@@ -679,7 +679,7 @@ Figures case_grazing(Ctx& ctx, double height, double offset) {
   int mat = scene.add_material(material<T>(T(0.7), T(0.7), T(0.7)));
   V3<T> base(T(offset), T(0), T(-offset));
   scene.add(twinray::Plane<T>{base, V3<T>(0, 1, 0), mat});
-  scene.add_light(twinray::PointLight<T>{base + V3<T>(T(2), T(3), T(-10)), T(100), V3<T>(1, 1, 1)});
+  scene.add_light(twinray::Light<T>{base + V3<T>(T(2), T(3), T(-10)), T(100), V3<T>(1, 1, 1)});
   V3<T> pos = base + V3<T>(0, T(height), 0);
   twinray::Camera<T> cam =
       perspective<T>(pos, pos + V3<T>(0, 0, -1), V3<T>(0, 1, 0), T(0.5), 48, 33);
@@ -754,7 +754,7 @@ Figures case_degenerate(Ctx& ctx, double scale) {
   const V3<T> a = sq.vertices[4], b = sq.vertices[5], m = sq.vertices[6];
   sq.triangles = {{0, 1, 5}, {0, 5, 4}, {4, 5, 6}, {4, 6, 3}, {6, 5, 2}, {6, 2, 3}};
   int square = scene.add(sq);
-  scene.add_light(twinray::PointLight<T>{V3<T>(1, 2, 3) * s, T(10) * s * s, V3<T>(1, 1, 1)});
+  scene.add_light(twinray::Light<T>{V3<T>(1, 2, 3) * s, T(10) * s * s, V3<T>(1, 1, 1)});
   Figures f;
   f.leaks = 0;
   f.wrong = 0;
@@ -815,7 +815,7 @@ Figures case_shininess_intensity(Ctx& ctx) {
     int mat = scene.add_material(material<T>(T(0.9), T(0.4), T(0.2), T(0), shininess));
     scene.add(twinray::Sphere<T>{V3<T>(0, 0, 0), T(1), mat});
     scene.add(twinray::Plane<T>{V3<T>(0, -1, 0), V3<T>(0, 1, 0), mat});
-    scene.add_light(twinray::PointLight<T>{V3<T>(2, 3, 3), intensity, V3<T>(1, 1, 1)});
+    scene.add_light(twinray::Light<T>{V3<T>(2, 3, 3), intensity, V3<T>(1, 1, 1)});
     return scene;
   };
   twinray::Camera<T> cam =
@@ -864,7 +864,7 @@ Figures case_mirrors(Ctx& ctx, T k) {
   scene.add(twinray::Plane<T>{V3<T>(0, 0, -1), V3<T>(0, 0, 1), mat});
   scene.add(twinray::Plane<T>{V3<T>(0, 0, 1), V3<T>(0, 0, -1), mat});
   const T intensity = T(2);
-  scene.add_light(twinray::PointLight<T>{V3<T>(0, 0, 0), intensity, V3<T>(1, 1, 1)});
+  scene.add_light(twinray::Light<T>{V3<T>(0, 0, 0), intensity, V3<T>(1, 1, 1)});
   twinray::Camera<T> cam;
   cam.projection = twinray::Projection::Orthographic;
   cam.position = V3<T>(0, 0, 0);

@@ -46,7 +46,7 @@ twinray::PackedScene<T> without_bvh(twinray::PackedScene<T> ps) {
 // Renders a packed scene on a backend (Cpu or OpenCL) through the backend interface.
 template <class T>
 twinray::Image<T> render_packed(const twinray::PackedScene<T>& ps, const twinray::Camera<T>& camera,
-                                const std::vector<twinray::PointLight<T>>& lights,
+                                const std::vector<twinray::Light<T>>& lights,
                                 twinray::RenderOptions options, twinray::Backend backend) {
   options.backend = backend;
   options.log = [](const std::string&) {};

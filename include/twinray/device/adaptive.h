@@ -34,7 +34,7 @@ TR_FN vec3 tr_adaptive_first(const TrSceneRef* s, int px, int py, vec3* range) {
   vec3 lo = sum, hi = sum;
   for (int i = 0; i < p->spp; ++i) {
     TrSample2 smp = tr_sample_position_seeded(p->sampler, p->seed, i, p->spp, px, py);
-    vec3 c = tr_trace(s, tr_camera_ray(p, px, py, smp));
+    vec3 c = tr_trace(s, tr_camera_ray(p, px, py, smp), tr_sample_seed(s, px, py, i));
     sum = sum + c;
     if (i == 0) {
       lo = c;
@@ -107,7 +107,7 @@ TR_FN vec3 tr_adaptive_refine(const TrSceneRef* s, TR_GLOBAL const real* stats, 
   }
   for (int i = first; i < n; ++i) {
     TrSample2 smp = tr_sample_position_seeded(p->sampler, p->seed, i, n, px, py);
-    sum = sum + tr_trace(s, tr_camera_ray(p, px, py, smp));
+    sum = sum + tr_trace(s, tr_camera_ray(p, px, py, smp), tr_sample_seed(s, px, py, i));
   }
   return sum * (TR_R(1.0) / (real)n);
 }

@@ -123,8 +123,8 @@ static_assert(sizeof(f32::TrMaterial) == 60 && sizeof(f64::TrMaterial) == 112, "
 static_assert(sizeof(f32::TrTriangleAttr) == 68 && sizeof(f64::TrTriangleAttr) == 128,
               "TrTriangleAttr layout");
 static_assert(sizeof(f32::TrTexture) == 16 && sizeof(f64::TrTexture) == 16, "TrTexture layout");
-static_assert(sizeof(f32::TrLight) == 24 && sizeof(f64::TrLight) == 48, "TrLight layout");
-static_assert(sizeof(f32::TrParams) == 76 + 88 && sizeof(f64::TrParams) == 152 + 88,
+static_assert(sizeof(f32::TrLight) == 64 && sizeof(f64::TrLight) == 120, "TrLight layout");
+static_assert(sizeof(f32::TrParams) == 120 + 92 && sizeof(f64::TrParams) == 240 + 92 + 4,
               "TrParams layout");
 static_assert(sizeof(f32::TrQueryRay) == 40 && sizeof(f64::TrQueryRay) == 72, "TrQueryRay layout");
 static_assert(sizeof(f32::TrQueryHit) == 32 && sizeof(f64::TrQueryHit) == 56, "TrQueryHit layout");

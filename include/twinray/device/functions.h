@@ -15,6 +15,8 @@
 #include "scene_hit.h"
 #include "ray_query.h"
 #include "texture.h"
+#include "environment.h"
+#include "area_light.h"
 #include "dielectric.h"
 #include "shading.h"
 #include "trace.h"

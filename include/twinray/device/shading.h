@@ -1,5 +1,5 @@
-/* Blinn-Phong shading with hard shadows (the original assignment's formulas), in linear RGB. For
- * each point light, with C the material color and E = intensity x color / d^2 the light's
+/* Blinn-Phong shading with shadows (the original assignment's formulas), in linear RGB. For
+ * each point light (and each shadow sample of an area light: area_light.h), with C the material color and E = intensity x color / d^2 the light's
  * irradiance at distance d (inverse-square law):
  *   ambient  = ka C E
  *   diffuse  = kd C E max(0, n.l)
@@ -36,13 +36,13 @@ TR_FN vec3 tr_facing_normal(const TrSceneRef* s, const TrHit* hit, vec3 ray_dir)
   return n;
 }
 
-/* Light i as seen from the hit point p with facing normal n. Every field is set
- * whichever terms are lit, with no branch: a loop over hits (trace.h) runs a hit per
- * SIMD lane. */
-TR_FN TrLightView tr_light_view(const TrSceneRef* s, vec3 p, vec3 n, int i) {
+/* Light i, or its sample at light_pos (area_light.h), as seen from the hit point p with
+ * facing normal n. Every field is set whichever terms are lit, with no branch: a loop
+ * over hits (trace.h) runs a hit per SIMD lane. */
+TR_FN TrLightView tr_light_view(const TrSceneRef* s, vec3 p, vec3 n, int i, vec3 light_pos) {
   TR_GLOBAL const TrLight* light = &s->lights[i];
   TrLightView lv;
-  lv.pos = TR_VEC3(light->px, light->py, light->pz);
+  lv.pos = light_pos;
   vec3 to_light = tr_sub3(lv.pos, p);
   real dist2 = tr_dot(to_light, to_light);
   lv.irradiance = tr_scale3(TR_VEC3(light->r, light->g, light->b), TR_R(1.0) / dist2);
@@ -96,6 +96,16 @@ TR_FN real tr_shadow_transmittance(const TrSceneRef* s, TrRay shadow, real tmax)
     if (!(tmax > TR_R(0.0))) return through;
   }
   return TR_R(0.0);
+}
+
+/* What passes glass on a shadow ray (from tr_shadow_ray) that an any-hit test found
+ * *blocked: tr_shadow_transmittance where glass is compiled in and the ray is blocked,
+ * which leaves *blocked set only where nothing passes; else 1. */
+TR_FN real tr_shadow_through(const TrSceneRef* s, TrRay shadow, real tmax, int* blocked) {
+  if (!tr_use(s, TR_F_DIELECTRIC) || !*blocked) return TR_R(1.0);
+  real through = tr_shadow_transmittance(s, shadow, tmax);
+  *blocked = !(through > TR_R(0.0));
+  return through;
 }
 
 /* sum plus the light's terms at the hit up to the specular power (surface sf, incoming
@@ -177,25 +187,25 @@ TR_FN void tr_specular_powers(const TrSceneRef* s, const TrHit* hits, const int*
   tr_pow_bits(power, base, n, (int)whole);
 }
 
-/* The hit's color, tracing its shadow rays one by one. tr_render_block (trace.h) adds
- * the same terms in the same order, light by light over a block's hits, with each
- * light's shadow rays traced as one packet. */
-TR_FN vec3 tr_shade(const TrSceneRef* s, const TrHit* hit, vec3 ray_dir) {
+/* The hit's color, tracing its shadow rays one by one, for a path of seed word seed
+ * (its area lights' samples: area_light.h). tr_render_block (trace.h) adds the same
+ * terms in the same order, light sample by light sample over a block's hits, with each
+ * sample's shadow rays traced as one packet. */
+TR_FN vec3 tr_shade(const TrSceneRef* s, const TrHit* hit, vec3 ray_dir, unsigned int seed) {
   TrSurface sf = tr_surface(s, hit, ray_dir);
   vec3 sum = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
   for (int i = 0; i < s->params->n_lights; ++i) {
-    TrLightView lv = tr_light_view(s, hit->p, sf.n, i);
-    TrRay shadow;
-    real tmax;
-    int blocked =
-        tr_light_needs_shadow_ray(s, lv, hit->shadow_p, hit->shadow_perr, hit->n, &shadow, &tmax) &&
-        tr_any_hit(s, &shadow, tmax);
-    real through = TR_R(1.0);
-    if (tr_use(s, TR_F_DIELECTRIC) && blocked) {
-      through = tr_shadow_transmittance(s, shadow, tmax);
-      blocked = !(through > TR_R(0.0));
+    for (int k = 0; k < tr_light_samples(s, i); ++k) {
+      vec3 light_pos = tr_light_sample_position(s, i, k, seed, hit->p);
+      TrLightView lv = tr_light_view(s, hit->p, sf.n, i, light_pos);
+      TrRay shadow;
+      real tmax;
+      int blocked = tr_light_needs_shadow_ray(s, lv, hit->shadow_p, hit->shadow_perr, hit->n,
+                                              &shadow, &tmax) &&
+                    tr_any_hit(s, &shadow, tmax);
+      real through = tr_shadow_through(s, shadow, tmax, &blocked);
+      sum = tr_add_light(s, hit, sf, ray_dir, lv, blocked, through, sum);
     }
-    sum = tr_add_light(s, hit, sf, ray_dir, lv, blocked, through, sum);
   }
   return sum;
 }

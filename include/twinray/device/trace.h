@@ -12,9 +12,11 @@
  * order. A ray whose weight falls below TR_MIN_WEIGHT in every channel is not traced. */
 #define TR_MIN_WEIGHT TR_R(0.0009765625) /* 2^-10 */
 
-/* A camera ray's path before its first segment. */
-TR_FN TrPath tr_path_start(const TrSceneRef* s, TrRay ray) {
+/* A camera ray's path before its first segment; seed: the word its area lights' samples
+ * come from (tr_path_seed: area_light.h). */
+TR_FN TrPath tr_path_start(const TrSceneRef* s, TrRay ray, unsigned int seed) {
   TrPath path;
+  path.seed = seed;
   path.ray = ray;
   path.from = ray.o;
   path.color = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
@@ -96,8 +98,7 @@ TR_FN void tr_path_step(const TrSceneRef* s, TrPath* path, TrRayStack* stack, in
                         const TrHit* hit, vec3 shaded) {
   --path->segments_left;
   if (!found) {
-    TR_GLOBAL const TrParams* p = s->params;
-    path->color = path->color + TR_VEC3(p->bg_r, p->bg_g, p->bg_b) * path->weight;
+    path->color = path->color + tr_miss_rgb(s, path->ray.d) * path->weight;
     tr_path_next(s, path, stack);
     return;
   }
@@ -122,17 +123,23 @@ TR_FN void tr_path_step(const TrSceneRef* s, TrPath* path, TrRayStack* stack, in
   path->weight = path->weight * glaze;
 }
 
-TR_FN vec3 tr_trace(const TrSceneRef* s, TrRay ray) {
+TR_FN vec3 tr_trace(const TrSceneRef* s, TrRay ray, unsigned int seed) {
   TrRayStack stack;
   stack.n = 0;
-  TrPath path = tr_path_start(s, ray);
+  TrPath path = tr_path_start(s, ray, seed);
   while (path.segments_left > 0) {
     TrHit hit = tr_no_hit();
     int found = tr_closest_hit(s, &path.ray, TR_R(INFINITY), &hit);
-    vec3 shaded = found ? tr_shade(s, &hit, path.ray.d) : TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
+    vec3 shaded = found ? tr_shade(s, &hit, path.ray.d, path.seed) : TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
     tr_path_step(s, &path, &stack, found, &hit, shaded);
   }
   return path.color;
+}
+
+/* The seed word of sample i's path in pixel (px, py): tr_path_seed where area lights
+ * are compiled in (else never read). */
+TR_FN_INLINE unsigned int tr_sample_seed(const TrSceneRef* s, int px, int py, int i) {
+  return tr_use(s, TR_F_AREA_LIGHTS) ? tr_path_seed(px, py, i, s->params->seed) : 0u;
 }
 
 /* Mean of the pixel's samples; the summation order is fixed, so both sides agree. */
@@ -141,7 +148,7 @@ TR_FN vec3 tr_render_pixel(const TrSceneRef* s, int px, int py) {
   vec3 sum = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
   for (int i = 0; i < p->spp; ++i) {
     TrSample2 smp = tr_sample_position_seeded(p->sampler, p->seed, i, p->spp, px, py);
-    sum = sum + tr_trace(s, tr_camera_ray(p, px, py, smp));
+    sum = sum + tr_trace(s, tr_camera_ray(p, px, py, smp), tr_sample_seed(s, px, py, i));
   }
   return sum * (TR_R(1.0) / (real)p->spp);
 }
@@ -197,7 +204,9 @@ TR_FN_INLINE void tr_block_camera_paths(const TrSceneRef* s, TrBlockScratch* b, 
       smp.y = smp_y[x];
       tr_packet_set_ray(pk, x, tr_camera_ray_of(&camera, x0 + x, y0 + y, smp));
     }
-    for (int x = 0; x < w; ++x) b->path[y * w + x] = tr_path_start(s, tr_packet_ray(pk, x));
+    for (int x = 0; x < w; ++x)
+      b->path[y * w + x] =
+          tr_path_start(s, tr_packet_ray(pk, x), tr_sample_seed(s, x0 + x, y0 + y, i));
   }
 }
 
@@ -246,79 +255,87 @@ TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, TrRayStack* s
         tr_set_lane3(&b->hit_facing_n, f++, sf.n);
       }
       for (int light = 0; light < p->n_lights && f > 0; ++light) {
-        /* Every hit's view of the light and shadow ray, a hit per SIMD lane (no slower
-         * than a hit at a time, and up to 8% faster: docs/performance.md); then
-         * the shadow rays asked for, moved to the front of the packet's arrays (never
-         * backwards: k <= q). */
-        TR_INDEPENDENT_LOOP
-        for (int q = 0; q < f; ++q) {
-          TrLightView lv =
-              tr_light_view(s, tr_lane3(&b->hit_p, q), tr_lane3(&b->hit_facing_n, q), light);
-          TrRay shadow;
-          real tmax;
-          b->shadow_traced[q] = tr_light_needs_shadow_ray(s, lv, tr_lane3(&b->hit_shadow_p, q),
-                                                          tr_lane3(&b->hit_shadow_perr, q),
-                                                          tr_lane3(&b->hit_n, q), &shadow, &tmax);
-          tr_set_lane3(&b->light_irradiance, q, lv.irradiance);
-          tr_set_lane3(&b->light_l, q, lv.l);
-          b->light_n_dot_l[q] = lv.n_dot_l;
-          b->light_lit[q] = lv.lit;
-          tr_packet_set_ray(pk, q, shadow);
-          pk->t[q] = tmax;
-          b->blocked[q] = 0;
-        }
-        int k = 0;
-        for (int q = 0; q < f; ++q) {
-          if (!b->shadow_traced[q]) continue;
-          pk->ray[k] = tr_packet_ray(pk, q);
-          pk->t[k] = pk->t[q];
-          b->lane[k++] = q;
-        }
-        if (k > 0) {
-          pk->n = k;
-          tr_any_hit_packet(s, pk, b->lane_blocked);
-          for (int j = 0; j < k; ++j) b->blocked[b->lane[j]] = b->lane_blocked[j];
-        }
-        TR_GLOBAL const TrLight* lp = &s->lights[light];
-        TrLightView lv;
-        lv.pos = TR_VEC3(lp->px, lp->py, lp->pz);
-        /* What passes glass on the blocked shadow rays, as tr_shade finds it. */
-        if (tr_use(s, TR_F_DIELECTRIC)) {
+        for (int k = 0; k < tr_light_samples(s, light); ++k) {
+          /* Where each hit sees the light (sample k of an area light: area_light.h). */
+          TR_GLOBAL const TrLight* lp = &s->lights[light];
+          vec3 light_pos = TR_VEC3(lp->px, lp->py, lp->pz);
+          for (int q = 0; q < f; ++q)
+            tr_set_lane3(&b->light_pos, q,
+                         tr_use(s, TR_F_AREA_LIGHTS)
+                             ? tr_light_sample_position(s, light, k,
+                                                        b->path[b->slot[b->found_ray[q]]].seed,
+                                                        tr_lane3(&b->hit_p, q))
+                             : light_pos);
+          /* Every hit's view of the light and shadow ray, a hit per SIMD lane (no slower
+           * than a hit at a time, and up to 8% faster: docs/performance.md); then
+           * the shadow rays asked for, moved to the front of the packet's arrays (never
+           * backwards: k <= q). */
+          TR_INDEPENDENT_LOOP
           for (int q = 0; q < f; ++q) {
-            b->through[q] = TR_R(1.0);
-            if (!b->blocked[q]) continue;
+            TrLightView lv = tr_light_view(s, tr_lane3(&b->hit_p, q), tr_lane3(&b->hit_facing_n, q),
+                                           light, tr_lane3(&b->light_pos, q));
             TrRay shadow;
             real tmax;
-            tr_shadow_ray(tr_lane3(&b->hit_shadow_p, q), tr_lane3(&b->hit_shadow_perr, q),
-                          tr_lane3(&b->hit_n, q), lv.pos, &shadow, &tmax);
-            b->through[q] = tr_shadow_transmittance(s, shadow, tmax);
-            b->blocked[q] = !(b->through[q] > TR_R(0.0));
+            b->shadow_traced[q] = tr_light_needs_shadow_ray(
+                s, lv, tr_lane3(&b->hit_shadow_p, q), tr_lane3(&b->hit_shadow_perr, q),
+                tr_lane3(&b->hit_n, q), &shadow, &tmax);
+            tr_set_lane3(&b->light_irradiance, q, lv.irradiance);
+            tr_set_lane3(&b->light_l, q, lv.l);
+            b->light_n_dot_l[q] = lv.n_dot_l;
+            b->light_lit[q] = lv.lit;
+            tr_packet_set_ray(pk, q, shadow);
+            pk->t[q] = tmax;
+            b->blocked[q] = 0;
           }
-        }
-        /* tr_add_light, hit by hit, with the specular powers of all hits between its
-         * two halves. */
-        for (int r = 0; r < m; ++r) {
-          b->specular[r] = 0;
-          b->n_dot_h[r] = TR_R(0.0);
-        }
-        for (int q = 0; q < f; ++q) {
-          int r = b->found_ray[q];
-          lv.irradiance = tr_lane3(&b->light_irradiance, q);
-          lv.l = tr_lane3(&b->light_l, q);
-          lv.n_dot_l = b->light_n_dot_l[q];
-          lv.lit = b->light_lit[q];
-          real through = TR_HAS(TR_F_DIELECTRIC) ? b->through[q] : TR_R(1.0);
-          b->shaded[r] = tr_add_light_before_power(
-              s, &b->hit[r], b->surface[r], b->path[b->slot[r]].ray.d, lv, b->blocked[q], through,
-              b->shaded[r], &b->n_dot_h[r], &b->specular[r]);
-        }
-        tr_specular_powers(s, b->hit, b->specular, b->n_dot_h, m, b->power);
-        for (int q = 0; q < f; ++q) {
-          int r = b->found_ray[q];
-          if (!b->specular[r]) continue;
-          lv.irradiance = tr_lane3(&b->light_irradiance, q);
-          real through = TR_HAS(TR_F_DIELECTRIC) ? b->through[q] : TR_R(1.0);
-          b->shaded[r] = tr_add_specular(s, &b->hit[r], lv, through, b->power[r], b->shaded[r]);
+          int traced = 0;
+          for (int q = 0; q < f; ++q) {
+            if (!b->shadow_traced[q]) continue;
+            pk->ray[traced] = tr_packet_ray(pk, q);
+            pk->t[traced] = pk->t[q];
+            b->lane[traced++] = q;
+          }
+          if (traced > 0) {
+            pk->n = traced;
+            tr_any_hit_packet(s, pk, b->lane_blocked);
+            for (int j = 0; j < traced; ++j) b->blocked[b->lane[j]] = b->lane_blocked[j];
+          }
+          /* What passes glass on the blocked shadow rays, as tr_shade finds it. */
+          if (tr_use(s, TR_F_DIELECTRIC)) {
+            for (int q = 0; q < f; ++q) {
+              TrRay shadow;
+              real tmax;
+              tr_shadow_ray(tr_lane3(&b->hit_shadow_p, q), tr_lane3(&b->hit_shadow_perr, q),
+                            tr_lane3(&b->hit_n, q), tr_lane3(&b->light_pos, q), &shadow, &tmax);
+              b->through[q] = tr_shadow_through(s, shadow, tmax, &b->blocked[q]);
+            }
+          }
+          /* tr_add_light, hit by hit, with the specular powers of all hits between its
+           * two halves. */
+          for (int r = 0; r < m; ++r) {
+            b->specular[r] = 0;
+            b->n_dot_h[r] = TR_R(0.0);
+          }
+          TrLightView lv;
+          for (int q = 0; q < f; ++q) {
+            int r = b->found_ray[q];
+            lv.pos = tr_lane3(&b->light_pos, q);
+            lv.irradiance = tr_lane3(&b->light_irradiance, q);
+            lv.l = tr_lane3(&b->light_l, q);
+            lv.n_dot_l = b->light_n_dot_l[q];
+            lv.lit = b->light_lit[q];
+            real through = TR_HAS(TR_F_DIELECTRIC) ? b->through[q] : TR_R(1.0);
+            b->shaded[r] = tr_add_light_before_power(
+                s, &b->hit[r], b->surface[r], b->path[b->slot[r]].ray.d, lv, b->blocked[q],
+                through, b->shaded[r], &b->n_dot_h[r], &b->specular[r]);
+          }
+          tr_specular_powers(s, b->hit, b->specular, b->n_dot_h, m, b->power);
+          for (int q = 0; q < f; ++q) {
+            int r = b->found_ray[q];
+            if (!b->specular[r]) continue;
+            lv.irradiance = tr_lane3(&b->light_irradiance, q);
+            real through = TR_HAS(TR_F_DIELECTRIC) ? b->through[q] : TR_R(1.0);
+            b->shaded[r] = tr_add_specular(s, &b->hit[r], lv, through, b->power[r], b->shaded[r]);
+          }
         }
       }
       for (int r = 0; r < m; ++r)

@@ -58,9 +58,20 @@ typedef struct TrTexture {
   int width, height, first, pad0;
 } TrTexture;
 
-/* Radiant intensity per channel: color x intensity, premultiplied by the host. */
+/* A light (scene/light.hpp): a point, or an area light that shading sees as n x n point
+ * lights spread over it (area_light.h). p: the point light's position, the rect's
+ * corner or the sphere's center; r, g, b: the radiant intensity per channel of each of
+ * its shadow samples, color x intensity / n^2, premultiplied by the host; e1, e2: the
+ * rect's edges; radius: the sphere's. */
+#define TR_LIGHT_POINT 0
+#define TR_LIGHT_RECT 1
+#define TR_LIGHT_SPHERE 2
 typedef struct TrLight {
   real px, py, pz, r, g, b;
+  real e1x, e1y, e1z, e2x, e2y, e2z, radius;
+  int shape;   /* TR_LIGHT_POINT, _RECT or _SPHERE */
+  int samples; /* n: n x n shadow samples (1 for a point light) */
+  int pad0;
 } TrLight;
 
 /* The BVH, W children per node (W = 2, 4 or 8: the TR_F_BVH2/4/8 bit of the scene), in
@@ -104,6 +115,12 @@ typedef struct TrParams {
   real ortho_dir_x, ortho_dir_y, ortho_dir_z;       /* -W, the orthographic ray direction */
   real bg_r, bg_g, bg_b;                            /* background color */
   real adaptive_threshold; /* refine a pixel whose contrast exceeds it (device/adaptive.h) */
+  /* The environment image (environment.h): its frame (unit right, up and forward
+   * vectors: +x, +y and -z by default), turns of the map about its up (rotate_degrees /
+   * 360) and the factor on its texels. */
+  real env_right_x, env_right_y, env_right_z, env_up_x, env_up_y, env_up_z;
+  real env_forward_x, env_forward_y, env_forward_z;
+  real env_turns, env_intensity;
   int width, height;       /* the whole frame */
   /* The pixels this render computes: the framebuffer holds rect_w x rect_h of them,
    * from (rect_x, rect_y). Adaptive sampling's first pass covers the statistics window,
@@ -116,6 +133,7 @@ typedef struct TrParams {
   int adaptive_spp; /* samples of a refined pixel; 0: adaptive sampling off */
   int n_spheres, n_triangles, n_planes, n_lights, n_bvh_nodes;
   int features; /* the run-time Features mask: switches inside the compiled ones */
+  int environment; /* the environment's texture index; -1: none (the background color) */
 } TrParams;
 
 /* A ray of a user's query (ray_query.h; twinray::Ray<T> on the host): origin o,
@@ -256,7 +274,7 @@ typedef struct TrQueryPacket {
   int octant[TR_QUERY_RUN], order[TR_QUERY_RUN], group_start[9];
 } TrQueryPacket;
 
-/* A point light as shading sees it from a hit (shading.h): where it is, the
+/* A point light, or one sample of an area light, as shading sees it from a hit (shading.h): where it is, the
  * irradiance it brings, the unit direction l to it and n.l; which terms it adds. */
 #define TR_LIGHT_NONE 0    /* the hit is at the light: no term */
 #define TR_LIGHT_AMBIENT 1 /* ambient only: behind the surface, or no other term on */
@@ -283,6 +301,7 @@ typedef struct TrPath {
   vec3 color;
   vec3 weight;
   int segments_left;
+  unsigned int seed; /* the word its area lights' samples come from (area_light.h) */
 } TrPath;
 
 /* The rays a path has still to trace where glass split it in two (trace.h): each with
@@ -322,14 +341,15 @@ typedef struct TrBlockScratch {
   /* The segment's hits in ray order, the q-th from ray found_ray[q]: what the light
    * loop reads of each, one array per component and set once a segment (the hit point,
    * the shadow origin and its error bound, the geometric and the facing normal); one
-   * light as each sees it (TrLightView's fields but the light's position); whether its
+   * light sample as each sees it (TrLightView's fields; the sample's position, which on
+   * an area light differs from hit to hit, in light_pos); whether its
    * shadow ray toward that light is traced (the ray is made in the packet's ox .. dz
    * and t at index q) and blocked (blocked[q]). The loop that makes them runs a hit
    * per SIMD lane over contiguous loads: from the hit records, each component was a
    * gather, and a lane per ray, hit or not, did the misses' work too. */
   TR_ALIGNED(TR_LINE_BYTES) TrVec3Lanes hit_p;
   TrVec3Lanes hit_shadow_p, hit_shadow_perr, hit_n, hit_facing_n;
-  TrVec3Lanes light_irradiance, light_l;
+  TrVec3Lanes light_pos, light_irradiance, light_l;
   real light_n_dot_l[TR_PACKET_MAX];
   int light_lit[TR_PACKET_MAX], shadow_traced[TR_PACKET_MAX], found_ray[TR_PACKET_MAX];
   int found[TR_PACKET_MAX], slot[TR_PACKET_MAX], lane[TR_PACKET_MAX];

@@ -39,6 +39,7 @@
 #include <twinray/io/json_read.hpp>
 #include <twinray/io/obj_mesh.hpp>
 #include <twinray/io/obj_model.hpp>
+#include <twinray/io/texture_image.hpp>
 #include <twinray/scene/mesh_normals.hpp>
 
 namespace twinray {
@@ -142,7 +143,7 @@ class SceneReader : public JsonReader<T> {
 
   void read_image(const Json& image, SceneFile<T>& out) {
     require_object(image, "image");
-    check_keys(image, "image", {"width", "height", "background"});
+    check_keys(image, "image", {"width", "height", "background", "environment"});
     out.camera.width = static_cast<int>(
         integer(require(image, "image", "width"), "image.width", 1, Limits::max_image_side));
     out.camera.height = static_cast<int>(
@@ -154,6 +155,32 @@ class SceneReader : public JsonReader<T> {
                         std::to_string(out.camera.height));
     if (const Json* bg = optional(image, "background"))
       out.scene.background = color(*bg, "image.background");
+    if (const Json* e = optional(image, "environment")) read_environment(*e, out.scene);
+  }
+
+  // An equirectangular image the rays that hit nothing see (scene/environment.hpp).
+  void read_environment(const Json& e, Scene<T>& scene) {
+    const std::string path = "image.environment";
+    require_object(e, path);
+    check_keys(e, path, {"file", "rotate_degrees", "intensity", "up"});
+    std::string fpath = key_path(path, "file");
+    std::string name = string(require(e, path, "file"), fpath);
+    if (name.empty()) fail(fpath, "must name an image file (PNG, JPEG or Radiance HDR)");
+    std::string file = name[0] == '/' || base_dir_.empty() ? name : base_dir_ + "/" + name;
+    Environment<T> env;
+    if (const Json* r = optional(e, "rotate_degrees"))
+      env.rotate_degrees = scalar(*r, key_path(path, "rotate_degrees"));
+    if (const Json* k = optional(e, "intensity"))
+      env.intensity = scalar(*k, key_path(path, "intensity"), 0.0);
+    if (const Json* u = optional(e, "up")) env.up = vector3(*u, key_path(path, "up"));
+    Texture<T> texture;
+    try {
+      texture = load_environment<T>(file);
+    } catch (const Error& err) {
+      fail(fpath, err.what());
+    }
+    env.texture = scene.add_texture(texture);
+    scene.environment = env;
   }
 
   void read_camera(const Json& camera, Camera<T>& c) {
@@ -274,10 +301,31 @@ class SceneReader : public JsonReader<T> {
       std::string path = index_path("lights", i);
       const Json& l = lights[i];
       require_object(l, path);
-      check_keys(l, path, {"type", "position", "intensity", "color"});
-      choice(require(l, path, "type"), key_path(path, "type"), {"point"});
-      PointLight<T> light;
-      light.position = vector3(require(l, path, "position"), key_path(path, "position"));
+      std::string type =
+          choice(require(l, path, "type"), key_path(path, "type"), {"point", "rect", "sphere"});
+      Light<T> light;
+      if (type == "point") {
+        check_keys(l, path, {"type", "position", "intensity", "color"});
+        light.position = vector3(require(l, path, "position"), key_path(path, "position"));
+      } else if (type == "rect") {
+        check_keys(l, path, {"type", "corner", "edge1", "edge2", "intensity", "color", "samples"});
+        light.shape = LightShape::Rect;
+        light.position = vector3(require(l, path, "corner"), key_path(path, "corner"));
+        light.edge1 = vector3(require(l, path, "edge1"), key_path(path, "edge1"));
+        light.edge2 = vector3(require(l, path, "edge2"), key_path(path, "edge2"));
+      } else {
+        check_keys(l, path, {"type", "center", "radius", "intensity", "color", "samples"});
+        light.shape = LightShape::Sphere;
+        light.position = vector3(require(l, path, "center"), key_path(path, "center"));
+        light.radius = scalar(require(l, path, "radius"), key_path(path, "radius"), 0.0, INFINITY,
+                              true);
+      }
+      if (type != "point") {
+        light.samples = kDefaultLightSamples;
+        if (const Json* n = optional(l, "samples"))
+          light.samples =
+              static_cast<int>(integer(*n, key_path(path, "samples"), 1, kMaxLightSamples));
+      }
       light.intensity = scalar(require(l, path, "intensity"), key_path(path, "intensity"), 0.0);
       if (const Json* c = optional(l, "color"))
         light.color = color(*c, key_path(path, "color"), INFINITY);

@@ -8,7 +8,8 @@
 //
 // What is read: every image stb_image can decode (PNG and JPEG are the formats scenes
 // use; stb_image's other formats, such as BMP, TGA or a GIF's first frame, come through
-// the same way). Radiance HDR files are refused: stb_image would clamp them to 8 bits. The
+// the same way). Radiance HDR files are refused as textures (stb_image would clamp them to
+// 8 bits) and read as they are for an environment (load_environment). The
 // image is decoded to 8-bit RGB: grey becomes R = G = B, any alpha channel is dropped (a
 // texture is a colour, not a mask), and 16-bit PNGs are reduced to their high 8 bits.
 // Each 8-bit value v becomes linear by the sRGB curve of IEC 61966-2-1:
@@ -72,7 +73,7 @@ const std::array<T, 256>& srgb_table() {
 }
 
 struct StbiFree {
-  void operator()(stbi_uc* p) const { stbi_image_free(p); }
+  void operator()(void* p) const { stbi_image_free(p); }
 };
 
 inline std::string stbi_reason() {
@@ -117,12 +118,14 @@ inline void check_pixels(unsigned long long width, unsigned long long height,
 
 }  // namespace detail
 
-// Decodes an image file's bytes; `name` (the file it came from) starts every message and
-// becomes the texture's name. Throws Error(InvalidInput).
+namespace detail {
+
+// decode_texture, or, with `hdr`, decode_environment: `kinds` names the formats accepted.
 template <class T>
-Texture<T> decode_texture(const unsigned char* bytes, size_t size, const std::string& name,
-                          const TextureLimits& limits = {}) {
-  if (size == 0) throw invalid_input(name + ": the file is empty, not a PNG or JPEG image");
+Texture<T> decode_image(const unsigned char* bytes, size_t size, const std::string& name,
+                        const TextureLimits& limits, bool hdr) {
+  const std::string kinds = hdr ? "PNG, JPEG or Radiance HDR" : "PNG or JPEG";
+  if (size == 0) throw invalid_input(name + ": the file is empty, not a " + kinds + " image");
   if (limits.max_file_bytes < 0 || size > static_cast<unsigned long long>(limits.max_file_bytes))
     throw invalid_input(name + ": the image is " + std::to_string(size) +
                         " bytes, more than the limit of " + std::to_string(limits.max_file_bytes));
@@ -137,16 +140,43 @@ Texture<T> decode_texture(const unsigned char* bytes, size_t size, const std::st
     detail::check_pixels(png_width, png_height, name, limits);
   int width = 0, height = 0, channels = 0;
   if (!stbi_info_from_memory(bytes, len, &width, &height, &channels))
-    throw invalid_input(name +
-                        ": not a PNG or JPEG image stb_image can decode: " + detail::stbi_reason());
+    throw invalid_input(name + ": not a " + kinds +
+                        " image stb_image can decode: " + detail::stbi_reason());
   if (width <= 0 || height <= 0)
     throw invalid_input(name + ": the image is " + detail::pixels_text(width, height) +
                         " pixels; a texture needs at least one");
   detail::check_pixels(static_cast<unsigned long long>(width),
                        static_cast<unsigned long long>(height), name, limits);
-  if (stbi_is_hdr_from_memory(bytes, len))
+  const bool hdr_file = stbi_is_hdr_from_memory(bytes, len) != 0;
+  if (hdr_file && !hdr)
     throw invalid_input(name +
                         ": is a Radiance HDR image; textures are 8-bit sRGB images (PNG or JPEG)");
+  Texture<T> texture;
+  texture.width = width;
+  texture.height = height;
+  texture.name = name;
+  texture.hdr = hdr;
+  const size_t count = static_cast<size_t>(width) * static_cast<size_t>(height) * 3;
+  if (hdr_file) {
+    // Radiance HDR holds linear values (RGBE: Ward, Graphics Gems II, 1991): no curve.
+    int got_width = 0, got_height = 0, file_channels = 0;
+    std::unique_ptr<float, detail::StbiFree> values(
+        stbi_loadf_from_memory(bytes, len, &got_width, &got_height, &file_channels, 3));
+    if (!values || got_width != width || got_height != height)
+      throw invalid_input(name + ": the " + detail::pixels_text(width, height) +
+                          " Radiance HDR image is damaged or truncated; stb_image cannot decode "
+                          "it: " +
+                          detail::stbi_reason());
+    texture.texels.resize(count);
+    for (size_t i = 0; i < count; ++i) {
+      const T v = static_cast<T>(values.get()[i]);
+      if (!(v >= T(0)) || !std::isfinite(v))
+        throw invalid_input(name + ": texel value " + std::to_string(i / 3) + " is " +
+                            std::to_string(values.get()[i]) + ", not a finite value >= 0");
+      texture.texels[i] = v;
+    }
+    return texture;
+  }
 
   int got_width = 0, got_height = 0, file_channels = 0;
   std::unique_ptr<stbi_uc, detail::StbiFree> pixels(
@@ -161,15 +191,28 @@ Texture<T> decode_texture(const unsigned char* bytes, size_t size, const std::st
                         " were decoded");
 
   const std::array<T, 256>& table = detail::srgb_table<T>();
-  Texture<T> texture;
-  texture.width = width;
-  texture.height = height;
-  texture.name = name;
-  const size_t count = static_cast<size_t>(width) * static_cast<size_t>(height) * 3;
   texture.texels.resize(count);
   const stbi_uc* p = pixels.get();
   for (size_t i = 0; i < count; ++i) texture.texels[i] = table[p[i]];
   return texture;
+}
+
+}  // namespace detail
+
+// Decodes an image file's bytes; `name` (the file it came from) starts every message and
+// becomes the texture's name. Throws Error(InvalidInput).
+template <class T>
+Texture<T> decode_texture(const unsigned char* bytes, size_t size, const std::string& name,
+                          const TextureLimits& limits = {}) {
+  return detail::decode_image<T>(bytes, size, name, limits, false);
+}
+
+// The same for an environment (Environment<T>): a Radiance HDR file's linear values as
+// they are, or a PNG or JPEG decoded as above; the texture is marked hdr.
+template <class T>
+Texture<T> decode_environment(const unsigned char* bytes, size_t size, const std::string& name,
+                              const TextureLimits& limits = {}) {
+  return detail::decode_image<T>(bytes, size, name, limits, true);
 }
 
 // Reads and decodes an image file (size-checked before it is read); the texture's name is
@@ -179,6 +222,14 @@ Texture<T> load_texture(const std::string& path, const TextureLimits& limits = {
   std::string bytes = detail::read_small_file(path, limits.max_file_bytes, "an image file");
   return decode_texture<T>(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), path,
                            limits);
+}
+
+// Reads and decodes an environment image (decode_environment).
+template <class T>
+Texture<T> load_environment(const std::string& path, const TextureLimits& limits = {}) {
+  std::string bytes = detail::read_small_file(path, limits.max_file_bytes, "an image file");
+  return decode_environment<T>(reinterpret_cast<const unsigned char*>(bytes.data()),
+                               bytes.size(), path, limits);
 }
 
 }  // namespace io

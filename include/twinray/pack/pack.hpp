@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstdint>
 #include <utility>
 #include <vector>
@@ -46,6 +47,7 @@ template <class T>
 struct SceneSummary {
   int n_spheres = 0, n_triangles = 0, n_planes = 0, n_bvh_nodes = 0;
   glm::vec<3, T> background{T(0), T(0), T(0)};
+  Environment<T> environment;
   unsigned features = 0;  // the geometry bits of PackedScene::features
   bool any_glazed = false;
   bool any_transmissive = false;
@@ -72,6 +74,7 @@ struct PackedScene {
   LargeVector<int> triangle_faces;
   LargeVector<unsigned> object_masks;
   glm::vec<3, T> background{T(0), T(0), T(0)};
+  Environment<T> environment;  // its texture is one of `textures`
   // Bits of the geometry: TR_F_SPHERES, TR_F_TRIANGLES, TR_F_PLANES, TR_F_BVH2/4/8,
   // TR_F_ATTRIBUTES, TR_F_TEXTURES, TR_F_MASKS.
   unsigned features = 0;
@@ -85,6 +88,7 @@ struct PackedScene {
     s.n_planes = static_cast<int>(planes.size());
     s.n_bvh_nodes = bvh_node_count();
     s.background = background;
+    s.environment = environment;
     s.features = features;
     s.any_glazed = any_glazed;
     s.any_transmissive = any_transmissive;
@@ -120,12 +124,12 @@ struct PixelRect {
 template <class T>
 struct RenderRequest {
   Camera<T> camera;
-  std::vector<PointLight<T>> lights;
+  std::vector<Light<T>> lights;
   RenderOptions options;
   PixelRect rect;  // default: the whole frame
 
   RenderRequest() = default;
-  RenderRequest(Camera<T> camera_, std::vector<PointLight<T>> lights_, RenderOptions options_,
+  RenderRequest(Camera<T> camera_, std::vector<Light<T>> lights_, RenderOptions options_,
                 PixelRect rect_ = {})
       : camera(std::move(camera_)),
         lights(std::move(lights_)),
@@ -247,6 +251,7 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
   });
   PackedScene<T> ps;
   ps.background = scene.background;
+  ps.environment = scene.environment;
   for (const Material<T>& m : scene.materials) {
     ps.materials.push_back({m.color.x, m.color.y, m.color.z, m.ka, m.kd, m.ks, m.shininess, m.glaze,
                             m.transmission, m.ior, m.absorption.x, m.absorption.y, m.absorption.z,
@@ -405,13 +410,17 @@ PackedScene<T> pack_scene(const Scene<T>& scene, BvhPolicy bvh) {
   return pack_scene(scene, options);
 }
 
-// The Features mask of a render: the scene's geometry bits, and what the options and
-// lights switch on.
+// The Features mask of a render: the scene's geometry bits, and what the options,
+// lights and environment switch on.
 template <class T>
-unsigned features_of(const SceneSummary<T>& ps, size_t n_lights, const RenderOptions& options) {
+unsigned features_of(const SceneSummary<T>& ps, const std::vector<Light<T>>& lights,
+                     const RenderOptions& options) {
   unsigned f = ps.features & ~TR_F_MASKS;  // masks are for ray queries; renders see every object
   if (options.output == Output::Shaded) {
-    bool lit = n_lights > 0;
+    bool lit = !lights.empty();
+    for (const Light<T>& l : lights)
+      if (l.shape != LightShape::Point) f |= TR_F_AREA_LIGHTS;
+    if (ps.environment.enabled()) f |= TR_F_ENVIRONMENT;
     if (lit && (options.terms & kAmbient)) f |= TR_F_AMBIENT;
     if (lit && (options.terms & kDiffuse)) f |= TR_F_DIFFUSE;
     if (lit && (options.terms & kSpecular)) f |= TR_F_SPECULAR;
@@ -448,9 +457,21 @@ PackedFrame<T> pack_frame(const SceneSummary<T>& ps, const RenderRequest<T>& req
   validate(options);
   const PixelRect rect = resolve_rect(request);
   PackedFrame<T> frame;
-  for (const PointLight<T>& l : request.lights) {
+  for (const Light<T>& l : request.lights) {
+    // Each of an area light's n x n samples carries 1/n^2 of it (device/area_light.h).
+    const bool point = l.shape == LightShape::Point;
+    const int n = point ? 1 : l.samples;
     glm::vec<3, T> rgb = l.color * l.intensity;
-    frame.lights.push_back({l.position.x, l.position.y, l.position.z, rgb.x, rgb.y, rgb.z});
+    if (n > 1) rgb = rgb / static_cast<T>(n * n);
+    typename device::Code<T>::Light light{};
+    light.px = l.position.x, light.py = l.position.y, light.pz = l.position.z;
+    light.r = rgb.x, light.g = rgb.y, light.b = rgb.z;
+    light.e1x = l.edge1.x, light.e1y = l.edge1.y, light.e1z = l.edge1.z;
+    light.e2x = l.edge2.x, light.e2y = l.edge2.y, light.e2z = l.edge2.z;
+    light.radius = l.radius;
+    light.shape = static_cast<int>(l.shape);
+    light.samples = n;
+    frame.lights.push_back(light);
   }
   CameraFrame<T> cf = camera.frame();
   auto& p = frame.params;
@@ -461,6 +482,15 @@ PackedFrame<T> pack_frame(const SceneSummary<T>& ps, const RenderRequest<T>& req
   p.dv_x = cf.dv.x, p.dv_y = cf.dv.y, p.dv_z = cf.dv.z;
   p.ortho_dir_x = cf.ortho_dir.x, p.ortho_dir_y = cf.ortho_dir.y, p.ortho_dir_z = cf.ortho_dir.z;
   p.bg_r = ps.background.x, p.bg_g = ps.background.y, p.bg_b = ps.background.z;
+  p.environment = ps.environment.texture;
+  if (ps.environment.enabled()) {
+    const typename Environment<T>::Frame e = ps.environment.frame();
+    p.env_right_x = e.right.x, p.env_right_y = e.right.y, p.env_right_z = e.right.z;
+    p.env_up_x = e.up.x, p.env_up_y = e.up.y, p.env_up_z = e.up.z;
+    p.env_forward_x = e.forward.x, p.env_forward_y = e.forward.y, p.env_forward_z = e.forward.z;
+  }
+  p.env_turns = std::fmod(ps.environment.rotate_degrees, T(360)) / T(360);  // exact remainder
+  p.env_intensity = ps.environment.intensity;
   p.width = camera.width;
   p.height = camera.height;
   p.rect_x = rect.x, p.rect_y = rect.y, p.rect_w = rect.width, p.rect_h = rect.height;
@@ -478,7 +508,7 @@ PackedFrame<T> pack_frame(const SceneSummary<T>& ps, const RenderRequest<T>& req
   p.n_planes = ps.n_planes;
   p.n_lights = static_cast<int>(frame.lights.size());
   p.n_bvh_nodes = ps.n_bvh_nodes;
-  frame.features = features_of(ps, frame.lights.size(), options);
+  frame.features = features_of(ps, request.lights, options);
   p.features = static_cast<int>(frame.features);
   if (p.adaptive_spp > 0) {
     // The adaptive criterion compares each pixel with its 8 neighbours' first-pass

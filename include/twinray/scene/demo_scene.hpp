@@ -60,7 +60,7 @@ DemoSetup<T> make_demo_scene(int width = 400, int height = 400) {
   d.scene.add(twinray::Triangle<T>{{v1, v3, v4}, lime});  // left
   d.scene.add(twinray::Triangle<T>{{v2, v3, v4}, lime});  // the fourth, closing it
   d.scene.add(twinray::Plane<T>{vec3(0, 1, 0), vec3(0, -1, 0), magenta});
-  d.scene.add_light(twinray::PointLight<T>{vec3(-2, -2, 1), T(12), vec3(1, 1, 1)});
+  d.scene.add_light(twinray::Light<T>{vec3(-2, -2, 1), T(12), vec3(1, 1, 1)});
 
   d.camera.position = vec3(4, -1, 5);
   d.camera.look_at = vec3(0, 0, -1);

@@ -1,4 +1,5 @@
-// Scene<T>: materials, an ordered list of objects, point lights, textures and a background.
+// Scene<T>: materials, an ordered list of objects, lights, textures, a background color and
+// an environment image.
 // An object's index in `objects` is its identity everywhere (error messages name
 // `objects[i]`, the object AOV writes i), matching the scene file's `objects` array.
 #pragma once
@@ -7,6 +8,7 @@
 #include <vector>
 #include <glm/vec3.hpp>
 
+#include <twinray/scene/environment.hpp>
 #include <twinray/scene/light.hpp>
 #include <twinray/scene/material.hpp>
 #include <twinray/scene/shapes.hpp>
@@ -24,14 +26,15 @@ template <class T>
 struct Scene {
   std::vector<Material<T>> materials;
   std::vector<Object<T>> objects;
-  std::vector<PointLight<T>> lights;
+  std::vector<Light<T>> lights;
   std::vector<Texture<T>> textures;             // Material::texture indexes them
   glm::vec<3, T> background{T(0), T(0), T(0)};  // color of rays that hit nothing
+  Environment<T> environment;  // what they see instead, where it has a texture
 
   // Each returns the new element's index.
   int add_material(const Material<T>& m) { return push(materials, m); }
   int add(const Object<T>& object) { return push(objects, object); }
-  int add_light(const PointLight<T>& light) { return push(lights, light); }
+  int add_light(const Light<T>& light) { return push(lights, light); }
   int add_texture(const Texture<T>& texture) { return push(textures, texture); }
 
  private:

@@ -11,9 +11,12 @@ namespace twinray {
 template <class T>
 struct Texture {
   int width = 0, height = 0;  // >= 1 each
-  // width x height x 3 linear values in [0, 1], row 0 at the top of the image (v = 1),
-  // left to right (u = 0 to 1).
+  // width x height x 3 linear values in [0, 1] (finite and >= 0 where hdr), row 0 at the
+  // top of the image (v = 1), left to right (u = 0 to 1).
   std::vector<T> texels;
+  // High dynamic range: from a Radiance HDR file, or any image loaded as an environment.
+  // Only an environment may use such a texture; a material's colors stay in [0, 1].
+  bool hdr = false;
   std::string name;  // where it came from, for messages
 
   size_t texel_index(int x, int y) const {

@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cmath>
 #include <exception>
+#include <limits>
 #include <vector>
 #include <sstream>
 #include <string>
@@ -137,8 +138,8 @@ void validate_mesh_attributes(const std::string& base, const Mesh<T>& m, size_t 
                  std::to_string(materials) + " defined)");
 }
 
-// A texture's size and texels: width x height x 3 values, each in [0, 1]. Returns the
-// number of values.
+// A texture's size and texels: width x height x 3 values, each in [0, 1] (finite and >= 0
+// in a high-dynamic-range one). Returns the number of values.
 template <class T>
 long long validate_texture(const std::string& base, const Texture<T>& t) {
   if (t.width < 1 || t.height < 1)
@@ -149,9 +150,12 @@ long long validate_texture(const std::string& base, const Texture<T>& t) {
     refuse(base + ".texels", "has " + std::to_string(t.texels.size()) + " values, " +
                                  std::to_string(t.width) + " x " + std::to_string(t.height) +
                                  " texels need " + std::to_string(values));
+  const T top = t.hdr ? std::numeric_limits<T>::max() : T(1);
   for (size_t i = 0; i < t.texels.size(); ++i)
-    if (!(t.texels[i] >= T(0) && t.texels[i] <= T(1)))
-      refuse(at(base + ".texels", i), "must be in [0, 1], got " + format_number(t.texels[i]));
+    if (!(t.texels[i] >= T(0) && t.texels[i] <= top))
+      refuse(at(base + ".texels", i),
+             std::string(t.hdr ? "must be finite and >= 0" : "must be in [0, 1]") + ", got " +
+                 format_number(t.texels[i]));
   return values;
 }
 
@@ -277,6 +281,34 @@ void validate_material(const Material<T>& m, size_t i, size_t textures) {
 using detail::validate_material;
 using detail::validate_object;
 
+// The environment, where it has a texture: its index in range, a finite rotation, an
+// intensity >= 0 whose product with every texel stays finite.
+template <class T>
+void validate_environment(const Scene<T>& scene) {
+  const Environment<T>& e = scene.environment;
+  if (e.texture < -1 || e.texture >= static_cast<int>(scene.textures.size()))
+    detail::refuse("image.environment.texture",
+                   "no texture with index " + std::to_string(e.texture) + " (" +
+                       std::to_string(scene.textures.size()) + " defined)");
+  if (!e.enabled()) return;
+  if (!std::isfinite(e.rotate_degrees))
+    detail::refuse("image.environment.rotate_degrees",
+                   "must be finite, got " + detail::format_number(e.rotate_degrees));
+  detail::require_range("image.environment.intensity", e.intensity, T(0), T(INFINITY));
+  detail::require_finite("image.environment.up", e.up);
+  if (!(glm::dot(e.up, e.up) > T(0)) || !std::isfinite(glm::dot(e.up, e.up)))
+    detail::refuse("image.environment.up",
+                   "must be a non-zero vector of finite length, got " + detail::format_vec(e.up));
+  T brightest = T(0);
+  for (T v : scene.textures[static_cast<size_t>(e.texture)].texels)
+    brightest = v > brightest ? v : brightest;
+  if (!std::isfinite(brightest * e.intensity))
+    detail::refuse("image.environment.intensity",
+                   "intensity x the brightest texel overflows: " +
+                       detail::format_number(e.intensity) + " x " +
+                       detail::format_number(brightest));
+}
+
 // Objects are checked in chunks of this many, on every thread (validate_geometry).
 inline constexpr size_t kValidateChunk = 4096;
 
@@ -293,8 +325,15 @@ void validate_geometry(const Scene<T>& scene, const AfterChunk& after_chunk) {
   for (int c = 0; c < 3; ++c)
     detail::require_range("image.background[" + std::to_string(c) + "]", scene.background[c], T(0),
                           T(1));
-  for (size_t i = 0; i < scene.materials.size(); ++i)
-    detail::validate_material(scene.materials[i], i, scene.textures.size());
+  for (size_t i = 0; i < scene.materials.size(); ++i) {
+    const Material<T>& m = scene.materials[i];
+    detail::validate_material(m, i, scene.textures.size());
+    if (m.texture >= 0 && scene.textures[static_cast<size_t>(m.texture)].hdr)
+      refuse(at("materials", i) + ".texture",
+             "is a high-dynamic-range image (" + scene.textures[static_cast<size_t>(m.texture)].name +
+                 "); a material's texture holds colors in [0, 1]");
+  }
+  validate_environment(scene);
   long long texels = 0;
   for (size_t i = 0; i < scene.textures.size(); ++i)
     texels += detail::validate_texture(at("textures", i), scene.textures[i]);
@@ -329,15 +368,35 @@ void validate_geometry(const Scene<T>& scene) {
   validate_geometry(scene, [](size_t, size_t, size_t) {});
 }
 
-// Lights: finite positions, intensities and colors >= 0, and a finite product of the two.
+// Lights: finite positions, intensities and colors >= 0, and a finite product of the two;
+// a rect's edges finite and spanning an area, a sphere's radius > 0, an area light's
+// samples per side in [1, kMaxLightSamples].
 template <class T>
-void validate_lights(const std::vector<PointLight<T>>& lights) {
+void validate_lights(const std::vector<Light<T>>& lights) {
   using detail::at;
   using detail::refuse;
   for (size_t i = 0; i < lights.size(); ++i) {
     std::string base = at("lights", i);
-    const PointLight<T>& l = lights[i];
-    detail::require_finite(base + ".position", l.position);
+    const Light<T>& l = lights[i];
+    const char* where = l.shape == LightShape::Rect     ? ".corner"
+                        : l.shape == LightShape::Sphere ? ".center"
+                                                         : ".position";
+    detail::require_finite(base + where, l.position);
+    if (l.shape == LightShape::Rect) {
+      detail::require_finite(base + ".edge1", l.edge1);
+      detail::require_finite(base + ".edge2", l.edge2);
+      glm::vec<3, T> area = glm::cross(l.edge1, l.edge2);
+      if (!(glm::dot(area, area) > T(0)) || !std::isfinite(glm::dot(area, area)))
+        refuse(base + ".edge2", "must span an area with edge1 (not zero, not parallel to it), got " +
+                                    detail::format_vec(l.edge1) + " and " +
+                                    detail::format_vec(l.edge2));
+    } else if (l.shape == LightShape::Sphere) {
+      detail::require_range(base + ".radius", l.radius, T(0), T(INFINITY), true);
+    } else if (l.shape != LightShape::Point) {
+      refuse(base + ".type", "unknown light shape " + std::to_string(static_cast<int>(l.shape)));
+    }
+    if (l.shape != LightShape::Point)
+      detail::require_count((base + ".samples").c_str(), l.samples, kMaxLightSamples);
     detail::require_range(base + ".intensity", l.intensity, T(0), T(INFINITY));
     for (int c = 0; c < 3; ++c)
       detail::require_range(base + ".color[" + std::to_string(c) + "]", l.color[c], T(0),
