@@ -99,7 +99,7 @@ ReportScene<T> edges_scene(int size) {
   s.add(twinray::Sphere<T>{vec3(T(2.4), T(2.3), T(0.3)), T(0.35), blue});
   s.add(twinray::Sphere<T>{vec3(T(-2.5), T(2.4), T(0.2)), T(0.25), red});
   s.add(twinray::Plane<T>{vec3(T(0), T(0), T(-1.5)), vec3(T(0), T(0), T(1)), wall});
-  s.add_light(twinray::PointLight<T>{vec3(T(2.5), T(3.5), T(6)), T(40), vec3(T(1), T(1), T(1))});
+  s.add_light(twinray::Light<T>{vec3(T(2.5), T(3.5), T(6)), T(40), vec3(T(1), T(1), T(1))});
   r.camera.position = vec3(T(0.5), T(0.8), T(7));
   r.camera.look_at = vec3(T(0), T(0), T(0));
   r.camera.up = vec3(T(0), T(1), T(0));

@@ -63,7 +63,7 @@ void add_floor_and_light(twinray::Scene<T>& scene) {
   floor.glaze = T(0.4);
   int m = scene.add_material(floor);
   scene.add(twinray::Plane<T>{vec3(0, 1, 0), vec3(0, -1, 0), m});
-  scene.add_light(twinray::PointLight<T>{vec3(-2, -2, 1), T(12), vec3(1, 1, 1)});
+  scene.add_light(twinray::Light<T>{vec3(-2, -2, 1), T(12), vec3(1, 1, 1)});
 }
 
 template <class T>
