@@ -197,10 +197,10 @@ class NativeScene {
     scene.lights.clear();  // Python passes the lights with each render
     scene.background = rounded<T>(background_);
     if (environment_)
-      scene.environment = environment_->path.empty()
-                              ? twinray::Environment<T>{}
-                              : environment_->placed(
-                                    scene, twinray::io::load_environment<T>(environment_->path));
+      scene.environment =
+          environment_->path.empty()
+              ? twinray::Environment<T>{}
+              : environment_->placed(scene, twinray::io::load_environment<T>(environment_->path));
     for (const Step& step : steps_) {
       if (auto* m = std::get_if<Material<double>>(&step)) {
         scene.add_material(rounded<T>(*m));

@@ -84,8 +84,8 @@ double penumbra_width(const Light<T>& light) {
 // A light of height 4 over the floor, centered on the blocker's edge (x = 0).
 template <class T>
 Light<T> rect_light(T size, int samples) {
-  return Light<T>::rect(vec3<T>(-size / 2, 4, -size / 2), vec3<T>(size, 0, 0),
-                        vec3<T>(0, 0, size), T(16), samples);
+  return Light<T>::rect(vec3<T>(-size / 2, 4, -size / 2), vec3<T>(size, 0, 0), vec3<T>(0, 0, size),
+                        T(16), samples);
 }
 
 // A small HDR environment: a horizontal gradient with a bright spot (values above 1).
@@ -111,8 +111,8 @@ twinray::demo::DemoSetup<T> lit_demo(int size) {
   auto demo = twinray::demo::make_demo_scene<T>(size, size);
   Scene<T>& scene = demo.scene;
   scene.lights.clear();
-  scene.add_light(Light<T>::rect(vec3<T>(T(-2.5), -2, T(0.5)), vec3<T>(1, 0, 0),
-                                 vec3<T>(0, 0, 1), T(8), 3));
+  scene.add_light(
+      Light<T>::rect(vec3<T>(T(-2.5), -2, T(0.5)), vec3<T>(1, 0, 0), vec3<T>(0, 0, 1), T(8), 3));
   scene.add_light(Light<T>::sphere(vec3<T>(3, -2, 2), T(0.4), T(6), 2, vec3<T>(1, T(0.9), T(0.7))));
   Material<T> glass;
   glass.color = vec3<T>(1);
@@ -157,8 +157,7 @@ TEST_CASE_TEMPLATE("the penumbra of a straight edge is as wide as the light's ge
   CHECK(penumbra_width(Light<T>{vec3<T>(0, 4, 0), T(16), vec3<T>(1)}) <= 0.005 / 0.9 + 1e-12);
 }
 
-TEST_CASE_TEMPLATE("an area light shrunk to a point renders as the point light", T, float,
-                   double) {
+TEST_CASE_TEMPLATE("an area light shrunk to a point renders as the point light", T, float, double) {
   // The demo's light as a rect of side 1e-5 and as a sphere of radius 1e-5: every
   // sample is within 1e-5 of the point, so each irradiance is within a relative 1e-5
   // or so of the point's (the lights are about 3 units away), and the samples' shares
@@ -228,8 +227,8 @@ TEST_CASE_TEMPLATE("the environment is what rays that hit nothing see, at any de
   for (int c = 0; c < 3; ++c) CHECK(unlit.pixel(8, 15)[c] == T(0));
 }
 
-TEST_CASE_TEMPLATE("area lights and the environment render the same bits on the CPU and OpenCL",
-                   T, float, double) {
+TEST_CASE_TEMPLATE("area lights and the environment render the same bits on the CPU and OpenCL", T,
+                   float, double) {
   auto demo = lit_demo<T>(80);
   RenderOptions options = quiet<T>();
   options.max_depth = 6;
@@ -242,14 +241,16 @@ TEST_CASE_TEMPLATE("area lights and the environment render the same bits on the 
   {
     test_support::ScopedEnv pixel_kernel("TWINRAY_OPENCL_KERNEL", "pixel");
     twinray::RenderInfo cl_info;
-    const Image<T> cl = test::render_with(demo.scene, demo.camera, options, Backend::OpenCL, &cl_info);
+    const Image<T> cl =
+        test::render_with(demo.scene, demo.camera, options, Backend::OpenCL, &cl_info);
     CHECK(cl_info.kernel == "pixel");
     CHECK(test::differing_values(cpu, cl) == 0);
   }
   {
     test_support::ScopedEnv blocks("TWINRAY_OPENCL_FIRST_FRAME", "blocks");
     twinray::RenderInfo cl_info;
-    const Image<T> cl = test::render_with(demo.scene, demo.camera, options, Backend::OpenCL, &cl_info);
+    const Image<T> cl =
+        test::render_with(demo.scene, demo.camera, options, Backend::OpenCL, &cl_info);
     CHECK(cl_info.kernel == "blocks");
     CHECK(test::differing_values(cpu, cl) == 0);
   }

@@ -38,7 +38,8 @@ TR_FN vec3 tr_light_sample_position(const TrSceneRef* s, int i, int k, unsigned 
   vec3 c = TR_VEC3(light->px, light->py, light->pz);
   if (!tr_use(s, TR_F_AREA_LIGHTS) || light->shape == TR_LIGHT_POINT) return c;
   int n = light->samples;
-  TrSample2 cell = tr_sample_stratified(k, n * n, tr_hash_u32(seed + (unsigned int)i * 0x9e3779b9u));
+  TrSample2 cell =
+      tr_sample_stratified(k, n * n, tr_hash_u32(seed + (unsigned int)i * 0x9e3779b9u));
   if (light->shape == TR_LIGHT_RECT)
     return c + TR_VEC3(light->e1x, light->e1y, light->e1z) * cell.x +
            TR_VEC3(light->e2x, light->e2y, light->e2z) * cell.y;

@@ -5,19 +5,20 @@
  *
  * A direction is first taken into the environment's frame (its up vector, +y unless
  * the scene says otherwise, with forward the part of -z, or else of +x, normal to it,
- * and right = forward x up). Direction d (unit) in that frame looks at u = 1/2 + atan2(d.x, -d.z) / (2 pi) - turns, where turns =
- * rotate_degrees / 360, and at v = 1 - acos(d.y) / pi: the image's top row is straight
- * up (+y), its bottom row straight down, its middle column is seen along -z (the
- * default camera's view), and u grows to the right as the view turns toward +x. A
- * positive rotation turns the map so that what was seen along -x is seen along -z at 90
- * degrees. Bilinear between texel centers, wrapping around in u and clamped at the
- * poles in v (texture.h); texels times the environment's intensity.
+ * and right = forward x up). Direction d (unit) in that frame looks at u = 1/2 + atan2(d.x, -d.z) /
+ * (2 pi) - turns, where turns = rotate_degrees / 360, and at v = 1 - acos(d.y) / pi: the image's
+ * top row is straight up (+y), its bottom row straight down, its middle column is seen along -z
+ * (the default camera's view), and u grows to the right as the view turns toward +x. A positive
+ * rotation turns the map so that what was seen along -x is seen along -z at 90 degrees. Bilinear
+ * between texel centers, wrapping around in u and clamped at the poles in v (texture.h); texels
+ * times the environment's intensity.
  *
  * atan2 and acos are computed here from + - * / and sqrt only, so both backends give
  * the same bits (OpenCL's atan2 is not correctly rounded, and not the C library's):
  * acos(y) = atan2(sqrt(x^2 + z^2), y) for a unit d, and atan on [0, 1] is reduced to
  * [-tan(pi/8), tan(pi/8)] and taken by the polynomial of Cephes' atanf (S. Moshier),
- * whose error is below 2e-7 radians: a thousandth of a texel of a 32768-texel-wide map. */
+ * off by about 1e-8 rad in double and 3e-7 in float (tests/device/environment_test.cpp):
+ * a thousandth of a texel of a 32768-texel-wide map at most. */
 
 /* atan(x) for x in [0, 1]. */
 TR_FN real tr_atan_unit(real x) {
@@ -27,13 +28,14 @@ TR_FN real tr_atan_unit(real x) {
     x = (x - TR_R(1.0)) / (x + TR_R(1.0));
   }
   real z = x * x;
-  real poly = ((TR_R(8.05374449538e-2) * z - TR_R(1.38776856032e-1)) * z + TR_R(1.99777106478e-1)) * z -
-              TR_R(3.33329491539e-1);
+  real poly =
+      ((TR_R(8.05374449538e-2) * z - TR_R(1.38776856032e-1)) * z + TR_R(1.99777106478e-1)) * z -
+      TR_R(3.33329491539e-1);
   return base + (poly * z * x + x);
 }
 
-/* The angle of (x, y) from the +x axis, in [-pi, pi]: atan2(y, x) to within 2e-7 rad;
- * 0 for (0, 0). */
+/* The angle of (x, y) from the +x axis, in [-pi, pi]: atan2(y, x) to within the error
+ * above; 0 for (0, 0). */
 TR_FN real tr_atan2(real y, real x) {
   real ax = tr_fabs(x), ay = tr_fabs(y);
   real big = tr_max(ax, ay), small = tr_min(ax, ay);

@@ -7,22 +7,22 @@
 #ifndef TWINRAY_DEVICE_FEATURES_H
 #define TWINRAY_DEVICE_FEATURES_H
 
-#define TR_F_SPHERES 0x001u     /* scene has spheres */
-#define TR_F_TRIANGLES 0x002u   /* scene has triangles (single or from meshes) */
-#define TR_F_PLANES 0x004u      /* scene has infinite planes */
-#define TR_F_BVH2 0x008u        /* spheres and triangles are walked through a 2-wide BVH */
-#define TR_F_SHADOWS 0x010u     /* shadow rays are traced */
-#define TR_F_GLAZE 0x020u       /* reflected rays are traced (something glazed, depth > 1) */
-#define TR_F_AMBIENT 0x040u     /* ambient term on */
-#define TR_F_DIFFUSE 0x080u     /* diffuse term on */
-#define TR_F_SPECULAR 0x100u    /* specular term on */
-#define TR_F_ATTRIBUTES 0x200u  /* some triangles carry vertex normals or uvs (TrTriangleAttr) */
-#define TR_F_TEXTURES 0x400u    /* some material has a texture */
-#define TR_F_BVH4 0x800u        /* ... through a 4-wide BVH */
-#define TR_F_BVH8 0x1000u       /* ... through an 8-wide BVH */
-#define TR_F_MASKS 0x2000u      /* some object has a mask other than all ones (ray queries) */
-#define TR_F_DIELECTRIC 0x4000u /* some material transmits (glass: trace.h, dielectric.h) */
-#define TR_F_AREA_LIGHTS 0x8000u /* some light is a rect or a sphere (area_light.h) */
+#define TR_F_SPHERES 0x001u       /* scene has spheres */
+#define TR_F_TRIANGLES 0x002u     /* scene has triangles (single or from meshes) */
+#define TR_F_PLANES 0x004u        /* scene has infinite planes */
+#define TR_F_BVH2 0x008u          /* spheres and triangles are walked through a 2-wide BVH */
+#define TR_F_SHADOWS 0x010u       /* shadow rays are traced */
+#define TR_F_GLAZE 0x020u         /* reflected rays are traced (something glazed, depth > 1) */
+#define TR_F_AMBIENT 0x040u       /* ambient term on */
+#define TR_F_DIFFUSE 0x080u       /* diffuse term on */
+#define TR_F_SPECULAR 0x100u      /* specular term on */
+#define TR_F_ATTRIBUTES 0x200u    /* some triangles carry vertex normals or uvs (TrTriangleAttr) */
+#define TR_F_TEXTURES 0x400u      /* some material has a texture */
+#define TR_F_BVH4 0x800u          /* ... through a 4-wide BVH */
+#define TR_F_BVH8 0x1000u         /* ... through an 8-wide BVH */
+#define TR_F_MASKS 0x2000u        /* some object has a mask other than all ones (ray queries) */
+#define TR_F_DIELECTRIC 0x4000u   /* some material transmits (glass: trace.h, dielectric.h) */
+#define TR_F_AREA_LIGHTS 0x8000u  /* some light is a rect or a sphere (area_light.h) */
 #define TR_F_ENVIRONMENT 0x10000u /* rays that miss see an environment image (environment.h) */
 #define TR_F_ALL 0x1ffffu         /* the generic program: every feature compiled in */
 /* A BVH of any width. A packed scene with a BVH sets exactly one of the three bits: the

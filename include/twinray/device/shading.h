@@ -1,6 +1,6 @@
 /* Blinn-Phong shading with shadows (the original assignment's formulas), in linear RGB. For
- * each point light (and each shadow sample of an area light: area_light.h), with C the material color and E = intensity x color / d^2 the light's
- * irradiance at distance d (inverse-square law):
+ * each point light (and each shadow sample of an area light: area_light.h), with C the material
+ * color and E = intensity x color / d^2 the light's irradiance at distance d (inverse-square law):
  *   ambient  = ka C E
  *   diffuse  = kd C E max(0, n.l)
  *   specular = ks E max(0, n.h)^shininess       h = normalize(l + v)

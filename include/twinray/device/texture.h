@@ -1,8 +1,8 @@
 /* Texture lookup: bilinear filtering between the four nearest texel centers, with
  * repeat wrap (u and v taken modulo 1, and the neighbour past an edge is the texel on
- * the opposite edge; an environment's rows are clamped instead). Texels are linear RGB (the host decodes sRGB once), row 0 at the
- * top: v = 1 is the image's first row, as OBJ's `vt` and every image format agree.
- * Only floor, +, -, * and compares: the same bits on both backends. */
+ * the opposite edge; an environment's rows are clamped instead). Texels are linear RGB (the host
+ * decodes sRGB once), row 0 at the top: v = 1 is the image's first row, as OBJ's `vt` and every
+ * image format agree. Only floor, +, -, * and compares: the same bits on both backends. */
 
 /* u modulo 1, in [0, 1] (1 only where u is a tiny negative number and u + 1 rounds
  * up); 0 for a value that is not finite. */

@@ -130,7 +130,8 @@ TR_FN vec3 tr_trace(const TrSceneRef* s, TrRay ray, unsigned int seed) {
   while (path.segments_left > 0) {
     TrHit hit = tr_no_hit();
     int found = tr_closest_hit(s, &path.ray, TR_R(INFINITY), &hit);
-    vec3 shaded = found ? tr_shade(s, &hit, path.ray.d, path.seed) : TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
+    vec3 shaded =
+        found ? tr_shade(s, &hit, path.ray.d, path.seed) : TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
     tr_path_step(s, &path, &stack, found, &hit, shaded);
   }
   return path.color;
@@ -260,12 +261,12 @@ TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, TrRayStack* s
           TR_GLOBAL const TrLight* lp = &s->lights[light];
           vec3 light_pos = TR_VEC3(lp->px, lp->py, lp->pz);
           for (int q = 0; q < f; ++q)
-            tr_set_lane3(&b->light_pos, q,
-                         tr_use(s, TR_F_AREA_LIGHTS)
-                             ? tr_light_sample_position(s, light, k,
-                                                        b->path[b->slot[b->found_ray[q]]].seed,
-                                                        tr_lane3(&b->hit_p, q))
-                             : light_pos);
+            tr_set_lane3(
+                &b->light_pos, q,
+                tr_use(s, TR_F_AREA_LIGHTS)
+                    ? tr_light_sample_position(s, light, k, b->path[b->slot[b->found_ray[q]]].seed,
+                                               tr_lane3(&b->hit_p, q))
+                    : light_pos);
           /* Every hit's view of the light and shadow ray, a hit per SIMD lane (no slower
            * than a hit at a time, and up to 8% faster: docs/performance.md); then
            * the shadow rays asked for, moved to the front of the packet's arrays (never
@@ -276,9 +277,9 @@ TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, TrRayStack* s
                                            light, tr_lane3(&b->light_pos, q));
             TrRay shadow;
             real tmax;
-            b->shadow_traced[q] = tr_light_needs_shadow_ray(
-                s, lv, tr_lane3(&b->hit_shadow_p, q), tr_lane3(&b->hit_shadow_perr, q),
-                tr_lane3(&b->hit_n, q), &shadow, &tmax);
+            b->shadow_traced[q] = tr_light_needs_shadow_ray(s, lv, tr_lane3(&b->hit_shadow_p, q),
+                                                            tr_lane3(&b->hit_shadow_perr, q),
+                                                            tr_lane3(&b->hit_n, q), &shadow, &tmax);
             tr_set_lane3(&b->light_irradiance, q, lv.irradiance);
             tr_set_lane3(&b->light_l, q, lv.l);
             b->light_n_dot_l[q] = lv.n_dot_l;
@@ -325,8 +326,8 @@ TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, TrRayStack* s
             lv.lit = b->light_lit[q];
             real through = TR_HAS(TR_F_DIELECTRIC) ? b->through[q] : TR_R(1.0);
             b->shaded[r] = tr_add_light_before_power(
-                s, &b->hit[r], b->surface[r], b->path[b->slot[r]].ray.d, lv, b->blocked[q],
-                through, b->shaded[r], &b->n_dot_h[r], &b->specular[r]);
+                s, &b->hit[r], b->surface[r], b->path[b->slot[r]].ray.d, lv, b->blocked[q], through,
+                b->shaded[r], &b->n_dot_h[r], &b->specular[r]);
           }
           tr_specular_powers(s, b->hit, b->specular, b->n_dot_h, m, b->power);
           for (int q = 0; q < f; ++q) {

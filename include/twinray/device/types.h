@@ -121,7 +121,7 @@ typedef struct TrParams {
   real env_right_x, env_right_y, env_right_z, env_up_x, env_up_y, env_up_z;
   real env_forward_x, env_forward_y, env_forward_z;
   real env_turns, env_intensity;
-  int width, height;       /* the whole frame */
+  int width, height; /* the whole frame */
   /* The pixels this render computes: the framebuffer holds rect_w x rect_h of them,
    * from (rect_x, rect_y). Adaptive sampling's first pass covers the statistics window,
    * the rectangle plus a one-pixel border clipped to the frame (pack/pack.hpp). */
@@ -132,7 +132,7 @@ typedef struct TrParams {
   int seed;         /* sampler seed: jitter and per-pixel shifts (device/sampling.h) */
   int adaptive_spp; /* samples of a refined pixel; 0: adaptive sampling off */
   int n_spheres, n_triangles, n_planes, n_lights, n_bvh_nodes;
-  int features; /* the run-time Features mask: switches inside the compiled ones */
+  int features;    /* the run-time Features mask: switches inside the compiled ones */
   int environment; /* the environment's texture index; -1: none (the background color) */
 } TrParams;
 
@@ -274,8 +274,8 @@ typedef struct TrQueryPacket {
   int octant[TR_QUERY_RUN], order[TR_QUERY_RUN], group_start[9];
 } TrQueryPacket;
 
-/* A point light, or one sample of an area light, as shading sees it from a hit (shading.h): where it is, the
- * irradiance it brings, the unit direction l to it and n.l; which terms it adds. */
+/* A point light, or one sample of an area light, as shading sees it from a hit (shading.h): where
+ * it is, the irradiance it brings, the unit direction l to it and n.l; which terms it adds. */
 #define TR_LIGHT_NONE 0    /* the hit is at the light: no term */
 #define TR_LIGHT_AMBIENT 1 /* ambient only: behind the surface, or no other term on */
 #define TR_LIGHT_ALL 2     /* every term, unless its shadow ray is blocked */

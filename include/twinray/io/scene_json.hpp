@@ -317,8 +317,8 @@ class SceneReader : public JsonReader<T> {
         check_keys(l, path, {"type", "center", "radius", "intensity", "color", "samples"});
         light.shape = LightShape::Sphere;
         light.position = vector3(require(l, path, "center"), key_path(path, "center"));
-        light.radius = scalar(require(l, path, "radius"), key_path(path, "radius"), 0.0, INFINITY,
-                              true);
+        light.radius =
+            scalar(require(l, path, "radius"), key_path(path, "radius"), 0.0, INFINITY, true);
       }
       if (type != "point") {
         light.samples = kDefaultLightSamples;

@@ -228,8 +228,8 @@ Texture<T> load_texture(const std::string& path, const TextureLimits& limits = {
 template <class T>
 Texture<T> load_environment(const std::string& path, const TextureLimits& limits = {}) {
   std::string bytes = detail::read_small_file(path, limits.max_file_bytes, "an image file");
-  return decode_environment<T>(reinterpret_cast<const unsigned char*>(bytes.data()),
-                               bytes.size(), path, limits);
+  return decode_environment<T>(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(),
+                               path, limits);
 }
 
 }  // namespace io

@@ -12,9 +12,9 @@ namespace twinray {
 
 template <class T>
 struct Environment {
-  int texture = -1;        // index into Scene::textures; -1: no environment
-  T rotate_degrees = T(0);  // turns the map about +y (finite)
-  T intensity = T(1);       // factor on its texels (>= 0)
+  int texture = -1;                     // index into Scene::textures; -1: no environment
+  T rotate_degrees = T(0);              // turns the map about +y (finite)
+  T intensity = T(1);                   // factor on its texels (>= 0)
   glm::vec<3, T> up{T(0), T(1), T(0)};  // the direction the image's top row is seen in (not 0)
 
   bool enabled() const { return texture >= 0; }

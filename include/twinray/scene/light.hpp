@@ -20,7 +20,7 @@ enum class LightShape {
 // intensity, color} is one.
 template <class T>
 struct Light {
-  glm::vec<3, T> position{};  // a point's position, a rect's corner, a sphere's center
+  glm::vec<3, T> position{};               // a point's position, a rect's corner, a sphere's center
   T intensity = T(1);                      // >= 0
   glm::vec<3, T> color{T(1), T(1), T(1)};  // linear RGB, >= 0 (above 1 allowed)
   LightShape shape = LightShape::Point;

@@ -29,7 +29,7 @@ struct Scene {
   std::vector<Light<T>> lights;
   std::vector<Texture<T>> textures;             // Material::texture indexes them
   glm::vec<3, T> background{T(0), T(0), T(0)};  // color of rays that hit nothing
-  Environment<T> environment;  // what they see instead, where it has a texture
+  Environment<T> environment;                   // what they see instead, where it has a texture
 
   // Each returns the new element's index.
   int add_material(const Material<T>& m) { return push(materials, m); }

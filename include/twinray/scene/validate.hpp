@@ -303,10 +303,9 @@ void validate_environment(const Scene<T>& scene) {
   for (T v : scene.textures[static_cast<size_t>(e.texture)].texels)
     brightest = v > brightest ? v : brightest;
   if (!std::isfinite(brightest * e.intensity))
-    detail::refuse("image.environment.intensity",
-                   "intensity x the brightest texel overflows: " +
-                       detail::format_number(e.intensity) + " x " +
-                       detail::format_number(brightest));
+    detail::refuse("image.environment.intensity", "intensity x the brightest texel overflows: " +
+                                                      detail::format_number(e.intensity) + " x " +
+                                                      detail::format_number(brightest));
 }
 
 // Objects are checked in chunks of this many, on every thread (validate_geometry).
@@ -330,7 +329,8 @@ void validate_geometry(const Scene<T>& scene, const AfterChunk& after_chunk) {
     detail::validate_material(m, i, scene.textures.size());
     if (m.texture >= 0 && scene.textures[static_cast<size_t>(m.texture)].hdr)
       refuse(at("materials", i) + ".texture",
-             "is a high-dynamic-range image (" + scene.textures[static_cast<size_t>(m.texture)].name +
+             "is a high-dynamic-range image (" +
+                 scene.textures[static_cast<size_t>(m.texture)].name +
                  "); a material's texture holds colors in [0, 1]");
   }
   validate_environment(scene);
@@ -380,16 +380,16 @@ void validate_lights(const std::vector<Light<T>>& lights) {
     const Light<T>& l = lights[i];
     const char* where = l.shape == LightShape::Rect     ? ".corner"
                         : l.shape == LightShape::Sphere ? ".center"
-                                                         : ".position";
+                                                        : ".position";
     detail::require_finite(base + where, l.position);
     if (l.shape == LightShape::Rect) {
       detail::require_finite(base + ".edge1", l.edge1);
       detail::require_finite(base + ".edge2", l.edge2);
       glm::vec<3, T> area = glm::cross(l.edge1, l.edge2);
       if (!(glm::dot(area, area) > T(0)) || !std::isfinite(glm::dot(area, area)))
-        refuse(base + ".edge2", "must span an area with edge1 (not zero, not parallel to it), got " +
-                                    detail::format_vec(l.edge1) + " and " +
-                                    detail::format_vec(l.edge2));
+        refuse(base + ".edge2",
+               "must span an area with edge1 (not zero, not parallel to it), got " +
+                   detail::format_vec(l.edge1) + " and " + detail::format_vec(l.edge2));
     } else if (l.shape == LightShape::Sphere) {
       detail::require_range(base + ".radius", l.radius, T(0), T(INFINITY), true);
     } else if (l.shape != LightShape::Point) {
