@@ -277,7 +277,7 @@ class Hasher {
 template <class T>
 std::string pixels_key(const twinray::io::SceneFile<T>& f, const std::string& precision) {
   Hasher h;
-  h.text("twinray movie frames v2");
+  h.text("twinray movie frames v3");
   h.text(precision);
   const twinray::Camera<T>& c = f.camera;
   h.value(c.projection), h.value(c.position), h.value(c.look_at), h.value(c.up);
@@ -290,13 +290,19 @@ std::string pixels_key(const twinray::io::SceneFile<T>& f, const std::string& pr
   h.value(f.scene.background);
   for (const auto& m : f.scene.materials)
     h.value(m.color), h.value(m.ka), h.value(m.kd), h.value(m.ks), h.value(m.shininess),
-        h.value(m.glaze), h.value(m.texture);
+        h.value(m.glaze), h.value(m.texture), h.value(m.transmission), h.value(m.ior),
+        h.value(m.absorption);
   auto array = [&](const auto& v) {
     h.value(v.size());
     h.bytes(v.data(), v.size() * sizeof(v[0]));
   };
-  for (const auto& t : f.scene.textures) h.value(t.width), h.value(t.height), array(t.texels);
-  for (const auto& l : f.scene.lights) h.value(l.position), h.value(l.intensity), h.value(l.color);
+  for (const auto& t : f.scene.textures)
+    h.value(t.width), h.value(t.height), h.value(t.hdr), array(t.texels);
+  const twinray::Environment<T>& env = f.scene.environment;
+  h.value(env.texture), h.value(env.rotate_degrees), h.value(env.intensity), h.value(env.up);
+  for (const auto& l : f.scene.lights)
+    h.value(l.position), h.value(l.intensity), h.value(l.color), h.value(l.shape), h.value(l.edge1),
+        h.value(l.edge2), h.value(l.radius), h.value(l.samples);
   for (const auto& object : f.scene.objects) {
     h.value(object.index());
     std::visit(

@@ -317,3 +317,46 @@ TEST_CASE("movie: a shared frames folder - another process's temporary files are
   // The folder stays for the processes still writing there, with only their files.
   CHECK(test_support::listing(dir + "/s.frames") == std::vector<std::string>{other_host, running});
 }
+
+TEST_CASE("movie: kept frames are used again only when nothing that decides their pixels changed") {
+  // The scene's light becomes a rect, a sphere light, gains samples; a material turns to
+  // glass; an environment appears: each changes the pixels, so each rerun renders anew.
+  // The unchanged scene takes its kept frames.
+  const std::string base = read_file(kScenes + "/movie1.json");
+  const std::string point =
+      R"({ "type": "point", "position": [-2, -2, 1], "intensity": 12, "color": [1, 1, 1] })";
+  auto with = [&](const std::string& from, const std::string& to) {
+    std::string text = base;
+    const size_t at = text.find(from);
+    REQUIRE(at != std::string::npos);
+    return text.replace(at, from.size(), to);
+  };
+  const std::string rect =
+      R"({ "type": "rect", "corner": [-2, -2, 1], "edge1": [0.5, 0, 0], "edge2": [0, 0, 0.5], "intensity": 12 })";
+  const std::string variants[] = {
+      with(point, rect),
+      with(point, R"({ "type": "sphere", "center": [-2, -2, 1], "radius": 0.3, "intensity": 12 })"),
+      with(point, rect.substr(0, rect.size() - 2) + R"(, "samples": 2 })"),
+      with(R"("glaze": 0.4 })", R"("glaze": 0.4, "transmission": 0.5 })"),
+      with(R"("background": [0, 0, 0] })",
+           R"("background": [0, 0, 0], "environment": { "file": ")" + kScenes + R"(/sky.hdr" } })"),
+  };
+  std::string dir = fresh("movie_settings");
+  auto movie = [&](const std::string& text) {
+    test_support::write_file(dir + "/scene.json", text);
+    Run r = twinray({"movie", "scene.json", "-o", "s.mp4", "--width", "32", "--height", "24",
+                     "--frames", "2", "--backend", "cpu", "--keep-frames"},
+                    dir);
+    CAPTURE(r.err);
+    REQUIRE(r.status == 0);
+    return r;
+  };
+  movie(base);
+  CHECK(contains(movie(base).out, "2 kept from s.frames/"));
+  for (const std::string& text : variants) {
+    CAPTURE(text);
+    Run r = movie(text);
+    CHECK(contains(r.err, "frames of another scene or other settings; rendering anew"));
+    CHECK(contains(r.out, "2 rendered at"));
+  }
+}

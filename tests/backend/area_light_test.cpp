@@ -157,6 +157,46 @@ TEST_CASE_TEMPLATE("the penumbra of a straight edge is as wide as the light's ge
   CHECK(penumbra_width(Light<T>{vec3<T>(0, 4, 0), T(16), vec3<T>(1)}) <= 0.005 / 0.9 + 1e-12);
 }
 
+TEST_CASE("adaptive sampling refines the penumbra of an area light") {
+  // One sample per pixel with 2 x 2 light samples is noisy inside the penumbra and
+  // nowhere else: the pixels refined there are many more than the one or two a point
+  // light's sharp edge asks for in each row.
+  auto refined = [](const Light<float>& light) {
+    Scene<float> scene;
+    Material<float> white;
+    white.color = vec3<float>(1);
+    white.ka = white.ks = 0;
+    white.kd = 1;
+    const int m = scene.add_material(white);
+    scene.add(Plane<float>{vec3<float>(0), vec3<float>(0, 1, 0), m});
+    scene.add(Triangle<float>{
+        {vec3<float>(0, 1, -50), vec3<float>(0, 1, 50), vec3<float>(-100, 1, 0)}, m});
+    scene.add_light(light);
+    Camera<float> camera;
+    camera.projection = Projection::Orthographic;
+    camera.position = vec3<float>(0, 0.5f, 0);
+    camera.look_at = vec3<float>(0);
+    camera.up = vec3<float>(0, 0, -1);
+    camera.width = 200;
+    camera.height = 8;
+    camera.viewplane_height = 0.08f;
+    RenderOptions options = quiet<float>();
+    options.sampler = twinray::Sampler::R2;
+    options.adaptive_spp = 16;
+    options.adaptive_threshold = 0.02;
+    twinray::RenderInfo info;
+    test::render_with(scene, camera, options, Backend::Cpu, &info);
+    return info.refined_pixels;
+  };
+  const long long soft = refined(rect_light(1.5f, 2));
+  const long long hard = refined(Light<float>{vec3<float>(0, 4, 0), 16.0f, vec3<float>(1)});
+  CAPTURE(soft);
+  CAPTURE(hard);
+  CHECK(hard <= 3 * 8);
+  CHECK(soft > 10 * hard);
+  CHECK(soft > 200);
+}
+
 TEST_CASE_TEMPLATE("an area light shrunk to a point renders as the point light", T, float, double) {
   // The demo's light as a rect of side 1e-5 and as a sphere of radius 1e-5: every
   // sample is within 1e-5 of the point, so each irradiance is within a relative 1e-5

@@ -303,6 +303,8 @@ TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, TrRayStack* s
           /* What passes glass on the blocked shadow rays, as tr_shade finds it. */
           if (tr_use(s, TR_F_DIELECTRIC)) {
             for (int q = 0; q < f; ++q) {
+              b->through[q] = TR_R(1.0);
+              if (!b->blocked[q]) continue;
               TrRay shadow;
               real tmax;
               tr_shadow_ray(tr_lane3(&b->hit_shadow_p, q), tr_lane3(&b->hit_shadow_perr, q),
