@@ -35,6 +35,18 @@ namespace cpu {
 #endif
 constexpr unsigned kHostSpecializedFeatures = TWINRAY_CPU_SPECIALIZED_FEATURES;
 
+// This thread's V, made on its first use. Held through a pointer: where the device code
+// was handed a thread-local's own address, the compiler cloned the function it was
+// passed to with that address as a constant, which in a shared library recomputes it
+// (a call to __tls_get_addr) after every call the function makes: a third more time
+// per frame of the demo. A pointer loaded at run time cannot be folded in.
+template <class V>
+V& thread_scratch() {
+  thread_local std::unique_ptr<V> held;
+  if (!held) held = std::make_unique<V>();
+  return *held;
+}
+
 // The Features mask the CPU path compiles for a render that needs `needed`.
 constexpr unsigned compiled_features(unsigned needed) {
   return (needed & kHostSpecializedFeatures) | (TR_F_ALL & ~kHostSpecializedFeatures);
@@ -117,7 +129,7 @@ size_t for_each_query_chunk(const PackedScene<T>& scene, size_t n, QueryWalk wal
         for (size_t i = begin; i < end; ++i) one(static_cast<K*>(nullptr), ref, i);
         return;
       }
-      thread_local typename device::Code<T>::CpuQueryPacket scratch;
+      auto& scratch = thread_scratch<typename device::Code<T>::CpuQueryPacket>();
       const int walked = packets(static_cast<K*>(nullptr), ref, &scratch, begin, end);
       if (walked != 0) total.fetch_add(static_cast<size_t>(walked), std::memory_order_relaxed);
     });
@@ -261,12 +273,15 @@ class CpuBackend final : public RenderBackend<T> {
       static_assert(TR_BLOCK_SIDE * TR_BLOCK_SIDE <= TR_PACKET_MAX, "a block is one packet");
       // The block kernel's steps (tr_render_block_at), a tile of blocks at a time per
       // thread.
-      using RayStacks =
-          std::array<typename device::Code<T>::CpuRayStack, TR_BLOCK_SIDE * TR_BLOCK_SIDE>;
+      struct BlockMemory {
+        Scratch scratch;
+        // The pending rays of each path: read only where glass is in the scene.
+        std::array<typename device::Code<T>::CpuRayStack, TR_BLOCK_SIDE * TR_BLOCK_SIDE> stacks;
+      };
       parallel_for(K::tr_block_count(&p), TR_TILE_BLOCKS * TR_TILE_BLOCKS, [&](int index) {
-        thread_local Scratch scratch;
-        thread_local RayStacks stacks;  // read only where glass is in the scene
-        K::tr_render_block_at(&scene, &scratch, stacks.data(), index, image.rgb.data());
+        BlockMemory& memory = thread_scratch<BlockMemory>();
+        K::tr_render_block_at(&scene, &memory.scratch, memory.stacks.data(), index,
+                              image.rgb.data());
       });
       return;
     }

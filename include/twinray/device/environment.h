@@ -46,7 +46,7 @@ TR_FN real tr_atan2(real y, real x) {
 }
 
 /* The environment's color along unit direction d. */
-TR_FN vec3 tr_environment_rgb(const TrSceneRef* s, vec3 world) {
+TR_FN_NOINLINE vec3 tr_environment_rgb(const TrSceneRef* s, vec3 world) {
   TR_GLOBAL const TrParams* p = s->params;
   /* d in the environment's frame: right, up and back (-forward) as x, y and z */
   vec3 d = TR_VEC3(tr_dot(world, TR_VEC3(p->env_right_x, p->env_right_y, p->env_right_z)),

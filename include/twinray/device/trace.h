@@ -12,11 +12,9 @@
  * order. A ray whose weight falls below TR_MIN_WEIGHT in every channel is not traced. */
 #define TR_MIN_WEIGHT TR_R(0.0009765625) /* 2^-10 */
 
-/* A camera ray's path before its first segment; seed: the word its area lights' samples
- * come from (tr_path_seed: area_light.h). */
-TR_FN TrPath tr_path_start(const TrSceneRef* s, TrRay ray, unsigned int seed) {
+/* A camera ray's path before its first segment. */
+TR_FN TrPath tr_path_start(const TrSceneRef* s, TrRay ray) {
   TrPath path;
-  path.seed = seed;
   path.ray = ray;
   path.from = ray.o;
   path.color = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
@@ -94,8 +92,8 @@ TR_FN void tr_path_split(const TrSceneRef* s, TrPath* path, TrRayStack* stack, c
  * `shaded` there: adds what it sees and, on a glazed surface, turns the path into the
  * mirrored ray; on glass, splits it (tr_path_split); else the path takes its next
  * pending ray, if any. */
-TR_FN void tr_path_step(const TrSceneRef* s, TrPath* path, TrRayStack* stack, int found,
-                        const TrHit* hit, vec3 shaded) {
+TR_FN_INLINE void tr_path_step(const TrSceneRef* s, TrPath* path, TrRayStack* stack, int found,
+                               const TrHit* hit, vec3 shaded) {
   --path->segments_left;
   if (!found) {
     path->color = path->color + tr_miss_rgb(s, path->ray.d) * path->weight;
@@ -123,15 +121,17 @@ TR_FN void tr_path_step(const TrSceneRef* s, TrPath* path, TrRayStack* stack, in
   path->weight = path->weight * glaze;
 }
 
+/* The color a camera ray's path brings back; seed: the word its area lights' samples come
+ * from (tr_sample_seed). */
 TR_FN vec3 tr_trace(const TrSceneRef* s, TrRay ray, unsigned int seed) {
   TrRayStack stack;
   stack.n = 0;
-  TrPath path = tr_path_start(s, ray, seed);
+  TrPath path = tr_path_start(s, ray);
   while (path.segments_left > 0) {
     TrHit hit = tr_no_hit();
     int found = tr_closest_hit(s, &path.ray, TR_R(INFINITY), &hit);
     vec3 shaded =
-        found ? tr_shade(s, &hit, path.ray.d, path.seed) : TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
+        found ? tr_shade(s, &hit, path.ray.d, seed) : TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
     tr_path_step(s, &path, &stack, found, &hit, shaded);
   }
   return path.color;
@@ -205,9 +205,10 @@ TR_FN_INLINE void tr_block_camera_paths(const TrSceneRef* s, TrBlockScratch* b, 
       smp.y = smp_y[x];
       tr_packet_set_ray(pk, x, tr_camera_ray_of(&camera, x0 + x, y0 + y, smp));
     }
-    for (int x = 0; x < w; ++x)
-      b->path[y * w + x] =
-          tr_path_start(s, tr_packet_ray(pk, x), tr_sample_seed(s, x0 + x, y0 + y, i));
+    for (int x = 0; x < w; ++x) b->path[y * w + x] = tr_path_start(s, tr_packet_ray(pk, x));
+    if (tr_use(s, TR_F_AREA_LIGHTS))
+      for (int x = 0; x < w; ++x)
+        b->path_seed[y * w + x] = tr_path_seed(x0 + x, y0 + y, i, p->seed);
   }
 }
 
@@ -258,15 +259,17 @@ TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, TrRayStack* s
       for (int light = 0; light < p->n_lights && f > 0; ++light) {
         for (int k = 0; k < tr_light_samples(s, light); ++k) {
           /* Where each hit sees the light (sample k of an area light: area_light.h). */
-          TR_GLOBAL const TrLight* lp = &s->lights[light];
-          vec3 light_pos = TR_VEC3(lp->px, lp->py, lp->pz);
-          for (int q = 0; q < f; ++q)
-            tr_set_lane3(
-                &b->light_pos, q,
-                tr_use(s, TR_F_AREA_LIGHTS)
-                    ? tr_light_sample_position(s, light, k, b->path[b->slot[b->found_ray[q]]].seed,
-                                               tr_lane3(&b->hit_p, q))
-                    : light_pos);
+          if (tr_use(s, TR_F_AREA_LIGHTS)) {
+            for (int q = 0; q < f; ++q)
+              tr_set_lane3(
+                  &b->light_pos, q,
+                  tr_light_sample_position(s, light, k, b->path_seed[b->slot[b->found_ray[q]]],
+                                           tr_lane3(&b->hit_p, q)));
+          } else {
+            TR_GLOBAL const TrLight* lp = &s->lights[light];
+            vec3 light_pos = TR_VEC3(lp->px, lp->py, lp->pz);
+            for (int q = 0; q < f; ++q) tr_set_lane3(&b->light_pos, q, light_pos);
+          }
           /* Every hit's view of the light and shadow ray, a hit per SIMD lane (no slower
            * than a hit at a time, and up to 8% faster: docs/performance.md); then
            * the shadow rays asked for, moved to the front of the packet's arrays (never
@@ -321,7 +324,6 @@ TR_FN void tr_render_block(const TrSceneRef* s, TrBlockScratch* b, TrRayStack* s
           TrLightView lv;
           for (int q = 0; q < f; ++q) {
             int r = b->found_ray[q];
-            lv.pos = tr_lane3(&b->light_pos, q);
             lv.irradiance = tr_lane3(&b->light_irradiance, q);
             lv.l = tr_lane3(&b->light_l, q);
             lv.n_dot_l = b->light_n_dot_l[q];

@@ -301,7 +301,6 @@ typedef struct TrPath {
   vec3 color;
   vec3 weight;
   int segments_left;
-  unsigned int seed; /* the word its area lights' samples come from (area_light.h) */
 } TrPath;
 
 /* The rays a path has still to trace where glass split it in two (trace.h): each with
@@ -335,6 +334,9 @@ typedef struct TrBlockScratch {
   TR_ALIGNED(TR_LINE_BYTES) int specular[TR_PACKET_MAX];
   real n_dot_h[TR_PACKET_MAX], power[TR_PACKET_MAX];
   TrPath path[TR_PACKET_MAX];
+  /* The word each path's area light samples come from (tr_path_seed: area_light.h); set
+   * only where area lights are compiled in. Apart from TrPath, which stays 64 bytes. */
+  unsigned int path_seed[TR_PACKET_MAX];
   TrHit hit[TR_PACKET_MAX];
   TrSurface surface[TR_PACKET_MAX];
   vec3 shaded[TR_PACKET_MAX];
