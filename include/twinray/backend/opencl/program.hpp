@@ -235,8 +235,8 @@ inline bool take_build_lock(const std::string& lock, long pid) {
 // and stderr on /dev/null, no other descriptor of this process, nobody waiting for it.
 // A group of its own: Ctrl-C at a terminal, sent to the foreground group, does not
 // reach it. The same session: where the scheduler groups processes by session
-// (autogroups), a helper at nice 10 yields to the session's other processes, where in
-// a session of its own it would get a share as large as theirs.
+// (autogroups), a helper at low priority yields to the session's other processes, where
+// in a session of its own it would get a share as large as theirs.
 // Its process id; 0 where it could not start. A parent that outlives it leaves it a
 // zombie until the parent ends (process_alive counts a zombie as ended).
 inline long spawn_detached(std::vector<std::string> argv) {
@@ -420,7 +420,7 @@ class ProgramCache {
 
   // Has the application's build helper (build_helper()) build the program for these
   // options into the disk caches, in a detached process of its own (spawn_detached)
-  // that outlives this one, at nice 10: this process neither waits for it nor shares
+  // that outlives this one, at idle priority: this process neither waits for it nor shares
   // PoCL's one-build-at-a-time with it. The build lock ("program-KEY.lock") holds this
   // process's id while it starts the helper, then the helper's; the helper removes it
   // when done. Whether a build is under way: started now, or by an earlier process
