@@ -564,8 +564,8 @@ Figures case_tiny_far_sphere(Ctx& ctx, double distance) {
   int mat = scene.add_material(material<T>(T(0.8), T(0.8), T(0.8)));
   V3<T> c(T(0.013), T(-0.021), T(-distance));
   scene.add(twinray::Sphere<T>{c, T(1), mat});
-  scene.add_light(twinray::Light<T>{V3<T>(T(-distance), T(distance), T(0)),
-                                         T(distance * distance), V3<T>(1, 1, 1)});
+  scene.add_light(twinray::Light<T>{V3<T>(T(-distance), T(distance), T(0)), T(distance * distance),
+                                    V3<T>(1, 1, 1)});
   twinray::Camera<T> cam;
   cam.projection = twinray::Projection::Orthographic;
   cam.position = V3<T>(0, 0, 0);

@@ -33,7 +33,8 @@ TR_FN int tr_light_samples(const TrSceneRef* s, int i) {
 }
 
 /* Where sample k of light i is, for a path of seed word `seed` shading point p. */
-TR_FN_NOINLINE vec3 tr_light_sample_position(const TrSceneRef* s, int i, int k, unsigned int seed, vec3 p) {
+TR_FN_NOINLINE vec3 tr_light_sample_position(const TrSceneRef* s, int i, int k, unsigned int seed,
+                                             vec3 p) {
   TR_GLOBAL const TrLight* light = &s->lights[i];
   vec3 c = TR_VEC3(light->px, light->py, light->pz);
   if (!tr_use(s, TR_F_AREA_LIGHTS) || light->shape == TR_LIGHT_POINT) return c;
