@@ -257,6 +257,27 @@ TEST_CASE_TEMPLATE("the environment is what rays that hit nothing see, at any de
   CHECK(nonzero == reflected.rgb.size());
   // The floor's pixels see the environment's lower half mirrored: its blue is 0.5 x 0.5.
   CHECK(reflected.pixel(8, 15)[2] == doctest::Approx(0.25));
+  // Through glass: a slab of index 1 with no surface terms in front of the camera
+  // leaves the sky as it was, the refracted rays missing everything behind it and
+  // seeing it, up to the few ulps the refracted direction is rebuilt with.
+  Scene<T> slab;
+  slab.environment.texture = slab.add_texture(sky_texture<T>());
+  Material<T> clear;
+  clear.color = vec3<T>(1);
+  clear.ka = clear.kd = clear.ks = T(0);
+  clear.transmission = T(1);
+  clear.ior = T(1);
+  const int index1 = slab.add_material(clear);
+  slab.add(Plane<T>{vec3<T>(0, 0, T(-0.5)), vec3<T>(0, 0, 1), index1});
+  slab.add(Plane<T>{vec3<T>(0, 0, T(-0.7)), vec3<T>(0, 0, -1), index1});
+  camera.position = vec3<T>(0, 1, 0);
+  camera.look_at = vec3<T>(0, 1, -1);
+  RenderOptions deep = quiet<T>();
+  deep.max_depth = 8;
+  const Image<T> through = test::render_with(slab, camera, deep, Backend::Cpu);
+  for (size_t i = 0; i < sky.rgb.size(); ++i)
+    CHECK(std::fabs(double(through.rgb[i]) - double(sky.rgb[i])) <=
+          1e-4 * (1 + double(sky.rgb[i])));
   // Diffuse floor, no lights: black wherever the floor is seen.
   Scene<T> dark;
   dark.environment.texture = dark.add_texture(sky_texture<T>());
