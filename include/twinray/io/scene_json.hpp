@@ -166,7 +166,7 @@ class SceneReader : public JsonReader<T> {
     std::string fpath = key_path(path, "file");
     std::string name = string(require(e, path, "file"), fpath);
     if (name.empty()) fail(fpath, "must name an image file (PNG, JPEG or Radiance HDR)");
-    std::string file = name[0] == '/' || base_dir_.empty() ? name : base_dir_ + "/" + name;
+    const std::string file = beside_scene(name);
     Environment<T> env;
     if (const Json* r = optional(e, "rotate_degrees"))
       env.rotate_degrees = scalar(*r, key_path(path, "rotate_degrees"));
@@ -559,7 +559,7 @@ class SceneReader : public JsonReader<T> {
     std::string opath = key_path(path, "obj");
     std::string name = string(obj, opath);
     if (name.empty()) fail(opath, "must name an .obj file");
-    std::string file = name[0] == '/' || base_dir_.empty() ? name : base_dir_ + "/" + name;
+    const std::string file = beside_scene(name);
     ObjModelOptions options;
     options.limits.max_file_bytes = limits_.max_obj_file_bytes;
     options.limits.max_vertices = limits_.max_mesh_vertices;
@@ -627,6 +627,12 @@ class SceneReader : public JsonReader<T> {
   }
 
  private:
+  // A file the scene names (an OBJ, an environment image): an absolute path as it is,
+  // else relative to the scene's folder.
+  std::string beside_scene(const std::string& name) const {
+    return name[0] == '/' || base_dir_.empty() ? name : base_dir_ + "/" + name;
+  }
+
   std::string base_dir_;
   const SceneLimits& limits_;
   std::map<std::string, int> names_;
