@@ -11,7 +11,6 @@
 #include <twinray/scene/demo_scene.hpp>
 
 #include "backend/parity_util.hpp"
-#include "support/scoped_env.hpp"
 
 namespace {
 
@@ -38,11 +37,9 @@ RenderOptions quiet() {
 }
 
 // A white diffuse floor (y = 0), lit by `light` alone (no ambient or specular term),
-// under an opaque half-plane at height h = 1 over x < 0 (when `blocked`), seen from
-// below the half-plane straight down by an orthographic camera: `width` pixels of
-// `pixel` across x from -width pixel / 2, three rows.
+// under an opaque half-plane at height h = 1 over x < 0 (when `blocked`).
 template <class T>
-Image<T> floor_under_edge(const Light<T>& light, bool blocked, int width, T pixel) {
+Scene<T> floor_under_edge(const Light<T>& light, bool blocked) {
   Scene<T> scene;
   Material<T> white;
   white.color = vec3<T>(1);
@@ -53,15 +50,22 @@ Image<T> floor_under_edge(const Light<T>& light, bool blocked, int width, T pixe
   if (blocked)
     scene.add(Triangle<T>{{vec3<T>(0, 1, -50), vec3<T>(0, 1, 50), vec3<T>(-100, 1, 0)}, m});
   scene.add_light(light);
+  return scene;
+}
+
+// That floor seen from below the half-plane straight down by an orthographic camera:
+// `width` x `height` pixels of `pixel` world units, centered on x = 0.
+template <class T>
+Camera<T> floor_camera(int width, int height, T pixel) {
   Camera<T> camera;
   camera.projection = Projection::Orthographic;
   camera.position = vec3<T>(0, T(0.5), 0);
   camera.look_at = vec3<T>(0);
   camera.up = vec3<T>(0, 0, -1);
   camera.width = width;
-  camera.height = 3;
-  camera.viewplane_height = pixel * T(3);
-  return test::render_with(scene, camera, quiet<T>(), Backend::Cpu);
+  camera.height = height;
+  camera.viewplane_height = pixel * T(height);
+  return camera;
 }
 
 // The width of the penumbra on the floor, in world units: the pixels of the middle row
@@ -71,8 +75,11 @@ template <class T>
 double penumbra_width(const Light<T>& light) {
   const int width = 400;
   const T pixel = T(0.005);
-  const Image<T> open = floor_under_edge(light, false, width, pixel);
-  const Image<T> shaded = floor_under_edge(light, true, width, pixel);
+  const Camera<T> camera = floor_camera(width, 3, pixel);
+  const Image<T> open =
+      test::render_with(floor_under_edge(light, false), camera, quiet<T>(), Backend::Cpu);
+  const Image<T> shaded =
+      test::render_with(floor_under_edge(light, true), camera, quiet<T>(), Backend::Cpu);
   int partial = 0;
   for (int x = 0; x < width; ++x) {
     const double seen = double(shaded.pixel(x, 1)[0]) / double(open.pixel(x, 1)[0]);
@@ -162,30 +169,13 @@ TEST_CASE("adaptive sampling refines the penumbra of an area light") {
   // nowhere else: the pixels refined there are many more than the one or two a point
   // light's sharp edge asks for in each row.
   auto refined = [](const Light<float>& light) {
-    Scene<float> scene;
-    Material<float> white;
-    white.color = vec3<float>(1);
-    white.ka = white.ks = 0;
-    white.kd = 1;
-    const int m = scene.add_material(white);
-    scene.add(Plane<float>{vec3<float>(0), vec3<float>(0, 1, 0), m});
-    scene.add(Triangle<float>{
-        {vec3<float>(0, 1, -50), vec3<float>(0, 1, 50), vec3<float>(-100, 1, 0)}, m});
-    scene.add_light(light);
-    Camera<float> camera;
-    camera.projection = Projection::Orthographic;
-    camera.position = vec3<float>(0, 0.5f, 0);
-    camera.look_at = vec3<float>(0);
-    camera.up = vec3<float>(0, 0, -1);
-    camera.width = 200;
-    camera.height = 8;
-    camera.viewplane_height = 0.08f;
     RenderOptions options = quiet<float>();
     options.sampler = twinray::Sampler::R2;
     options.adaptive_spp = 16;
     options.adaptive_threshold = 0.02;
     twinray::RenderInfo info;
-    test::render_with(scene, camera, options, Backend::Cpu, &info);
+    test::render_with(floor_under_edge(light, true), floor_camera(200, 8, 0.01f), options,
+                      Backend::Cpu, &info);
     return info.refined_pixels;
   };
   const long long soft = refined(rect_light(1.5f, 2));
@@ -299,22 +289,8 @@ TEST_CASE_TEMPLATE("area lights and the environment render the same bits on the 
   const Image<T> cpu = test::render_with(demo.scene, demo.camera, options, Backend::Cpu, &info);
   CHECK((info.features & TR_F_AREA_LIGHTS) != 0);
   CHECK((info.features & TR_F_ENVIRONMENT) != 0);
-  {
-    test_support::ScopedEnv pixel_kernel("TWINRAY_OPENCL_KERNEL", "pixel");
-    twinray::RenderInfo cl_info;
-    const Image<T> cl =
-        test::render_with(demo.scene, demo.camera, options, Backend::OpenCL, &cl_info);
-    CHECK(cl_info.kernel == "pixel");
-    CHECK(test::differing_values(cpu, cl) == 0);
-  }
-  {
-    test_support::ScopedEnv blocks("TWINRAY_OPENCL_FIRST_FRAME", "blocks");
-    twinray::RenderInfo cl_info;
-    const Image<T> cl =
-        test::render_with(demo.scene, demo.camera, options, Backend::OpenCL, &cl_info);
-    CHECK(cl_info.kernel == "blocks");
-    CHECK(test::differing_values(cpu, cl) == 0);
-  }
+  test::check_kernel_parity(demo.scene, demo.camera, options, cpu, "pixel");
+  test::check_kernel_parity(demo.scene, demo.camera, options, cpu, "blocks");
   // One CPU thread: the same bits (each path's samples come from its pixel, not its
   // thread).
   twinray::set_thread_count(1);

@@ -208,23 +208,14 @@ TEST_CASE_TEMPLATE("glass renders the same bits on the CPU and on OpenCL, by bot
   RenderOptions options;
   options.max_depth = 10;
   options.spp = 2;
-  RenderOptions first = options;
   twinray::RenderInfo info;
   const Image<T> cpu = test::render_with(scene, demo.camera, options, Backend::Cpu, &info);
-  {
-    test_support::ScopedEnv pixel_kernel("TWINRAY_OPENCL_KERNEL", "pixel");
-    twinray::RenderInfo cl_info;
-    const Image<T> cl = test::render_with(scene, demo.camera, first, Backend::OpenCL, &cl_info);
-    CHECK(cl_info.kernel == "pixel");
-    CHECK(test::differing_values(cpu, cl) == 0);
-  }
-  test_support::ScopedEnv blocks("TWINRAY_OPENCL_FIRST_FRAME", "blocks");
-  twinray::RenderInfo cl_info;
-  const Image<T> cl = test::render_with(scene, demo.camera, options, Backend::OpenCL, &cl_info);
-  CHECK(cl_info.kernel == "blocks");
-  CHECK((cl_info.features & TR_F_DIELECTRIC) != 0);  // the program compiled for glass
-  CHECK(test::differing_values(cpu, cl) == 0);
+  test::check_kernel_parity(scene, demo.camera, options, cpu, "pixel");
+  const twinray::RenderInfo blocks =
+      test::check_kernel_parity(scene, demo.camera, options, cpu, "blocks");
+  CHECK((blocks.features & TR_F_DIELECTRIC) != 0);  // the program compiled for glass
   // The slab scene too, through the generic program.
+  test_support::ScopedEnv first_frame_blocks("TWINRAY_OPENCL_FIRST_FRAME", "blocks");
   Scene<T> slab;
   slab.background = vec3<T>(T(0.9), T(0.8), T(0.7));
   add_slab(slab, slab.add_material(glass<T>(T(1.5), T(1), vec3<T>(T(0.2)))), T(35), T(0.7));

@@ -8,6 +8,8 @@
 
 #include <twinray/twinray.hpp>
 
+#include "support/scoped_env.hpp"
+
 namespace test {
 
 // Number of framebuffer values whose bits differ (0 = identical images).
@@ -42,6 +44,25 @@ twinray::Image<T> check_parity(const twinray::Scene<T>& scene, const twinray::Ca
   for (T v : cpu.rgb) nonzero += v != T(0);
   CHECK(nonzero > cpu.rgb.size() / 20);  // a black image would prove nothing
   return cpu;
+}
+
+// Renders on OpenCL by one kernel, chosen through the environment: "pixel"
+// (TWINRAY_OPENCL_KERNEL=pixel) or "blocks" (TWINRAY_OPENCL_FIRST_FRAME=blocks, so that a
+// block program new to the machine is taken at once); checks that it ran and that the
+// image is `cpu`'s bit for bit. Returns what the render reported.
+template <class T>
+twinray::RenderInfo check_kernel_parity(const twinray::Scene<T>& scene,
+                                        const twinray::Camera<T>& camera,
+                                        const twinray::RenderOptions& options,
+                                        const twinray::Image<T>& cpu, const std::string& kernel) {
+  const bool pixel = kernel == "pixel";
+  test_support::ScopedEnv choice(pixel ? "TWINRAY_OPENCL_KERNEL" : "TWINRAY_OPENCL_FIRST_FRAME",
+                                 pixel ? "pixel" : "blocks");
+  twinray::RenderInfo info;
+  const twinray::Image<T> cl = render_with(scene, camera, options, twinray::Backend::OpenCL, &info);
+  CHECK(info.kernel == kernel);
+  CHECK(differing_values(cpu, cl) == 0);
+  return info;
 }
 
 }  // namespace test

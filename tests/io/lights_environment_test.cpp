@@ -3,27 +3,19 @@
 // value refused by file and JSON path.
 #include <doctest/doctest.h>
 
-#include <cstdio>
 #include <fstream>
 #include <string>
 
 #include <twinray/io/scene_json.hpp>
 #include <twinray/io/texture_image.hpp>
 
+#include "support/refusal.hpp"
+
 namespace {
 
 const std::string kScenes = TWINRAY_SCENES_DIR;
 
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const twinray::Error& e) {
-    CHECK(e.kind() == twinray::ErrorKind::InvalidInput);
-    return e.what();
-  }
-  return "";
-}
+using test_support::refusal;
 
 // A scene with `lights` and, inside `image`, `image_extra`.
 std::string scene_with(const std::string& lights, const std::string& image_extra = "") {
@@ -48,14 +40,13 @@ std::string hdr_bytes(int w, int h, unsigned char exponent) {
   return s;
 }
 
-struct TempFile {
-  std::string path;
-  TempFile(const std::string& name, const std::string& bytes)
-      : path(std::string(P_tmpdir) + "/twinray_lights_env_" + name) {
-    std::ofstream(path, std::ios::binary) << bytes;
-  }
-  ~TempFile() { std::remove(path.c_str()); }
-};
+// `bytes` written to `name` in `dir`; its path.
+std::string write_in(const test_support::TempDir& dir, const std::string& name,
+                     const std::string& bytes) {
+  const std::string path = dir.str() + "/" + name;
+  std::ofstream(path, std::ios::binary) << bytes;
+  return path;
+}
 
 }  // namespace
 
@@ -111,7 +102,7 @@ TEST_CASE("bad area lights are refused by file and JSON path") {
   for (const Bad& c : cases) {
     CAPTURE(c.light);
     const std::string message =
-        error_of([&] { twinray::io::parse_scene<float>(scene_with(c.light), "s.json"); });
+        refusal([&] { twinray::io::parse_scene<float>(scene_with(c.light), "s.json"); });
     if (c.message.empty())  // an unknown key: named, with the keys the type takes
       CHECK(message.find("unknown key") != std::string::npos);
     else
@@ -134,17 +125,18 @@ TEST_CASE_TEMPLATE("an environment is read from PNG, JPEG or Radiance HDR, besid
   CHECK(brightest > T(10));
   CHECK(env.up == glm::vec<3, T>(0, -1, 0));
   // A file of our own: its values as the RGBE encoding says, above 1.
-  TempFile hdr("a.hdr", hdr_bytes(20, 2, 136 + 4));
-  const twinray::Texture<T> t = twinray::io::load_environment<T>(hdr.path);
+  test_support::TempDir dir("twinray-env-read");
+  const std::string hdr = write_in(dir, "a.hdr", hdr_bytes(20, 2, 136 + 4));
+  const twinray::Texture<T> t = twinray::io::load_environment<T>(hdr);
   CHECK(t.width == 20);
   CHECK(t.height == 2);
   CHECK(t.texels[0] == T(128 * 16));
   CHECK(t.texels[3 * 19 + 2] == T((128 + 19) * 16));
   // The same file is refused as a material's texture.
-  CHECK(error_of([&] { twinray::io::load_texture<T>(hdr.path); }).find("is a Radiance HDR image") !=
+  CHECK(refusal([&] { twinray::io::load_texture<T>(hdr); }).find("is a Radiance HDR image") !=
         std::string::npos);
   auto g = twinray::io::parse_scene<T>(
-      scene_with("", R"(, "environment": { "file": ")" + hdr.path +
+      scene_with("", R"(, "environment": { "file": ")" + hdr +
                          R"(", "rotate_degrees": -30, "intensity": 0.5 })"),
       "s.json");
   CHECK(g.scene.environment.rotate_degrees == T(-30));
@@ -153,8 +145,9 @@ TEST_CASE_TEMPLATE("an environment is read from PNG, JPEG or Radiance HDR, besid
 }
 
 TEST_CASE("bad environments are refused by file and JSON path") {
-  TempFile hdr("b.hdr", hdr_bytes(4, 2, 136));
-  TempFile junk("junk.hdr", "#?RADIANCE\nnot really\n");
+  test_support::TempDir dir("twinray-env-refused");
+  const std::string hdr = write_in(dir, "b.hdr", hdr_bytes(4, 2, 136));
+  const std::string junk = write_in(dir, "junk.hdr", "#?RADIANCE\nnot really\n");
   struct Bad {
     std::string env, message;
   };
@@ -165,17 +158,17 @@ TEST_CASE("bad environments are refused by file and JSON path") {
       {R"({ "file": "/nonexistent/sky.hdr" })",
        "s.json: image.environment.file: /nonexistent/sky.hdr: cannot open an image file: No such "
        "file or directory"},
-      {R"({ "file": ")" + junk.path + R"(" })", "not a PNG, JPEG or Radiance HDR image"},
-      {R"({ "file": ")" + hdr.path + R"(", "intensity": -1 })",
+      {R"({ "file": ")" + junk + R"(" })", "not a PNG, JPEG or Radiance HDR image"},
+      {R"({ "file": ")" + hdr + R"(", "intensity": -1 })",
        "s.json: image.environment.intensity: must be >= 0, got -1"},
-      {R"({ "file": ")" + hdr.path + R"(", "up": [0, 0, 0] })",
+      {R"({ "file": ")" + hdr + R"(", "up": [0, 0, 0] })",
        "s.json: image.environment.up: must be a non-zero vector of finite length, got [0, 0, 0]"},
-      {R"({ "file": ")" + hdr.path + R"(", "rotate": 3 })", "unknown key"},
+      {R"({ "file": ")" + hdr + R"(", "rotate": 3 })", "unknown key"},
       {R"("sky.hdr")", "s.json: image.environment: must be an object, got a string (\"sky.hdr\")"},
   };
   for (const Bad& c : cases) {
     CAPTURE(c.env);
-    const std::string message = error_of([&] {
+    const std::string message = refusal([&] {
       twinray::io::parse_scene<float>(scene_with("", R"(, "environment": )" + c.env), "s.json");
     });
     if (c.message.rfind("s.json", 0) == 0)
@@ -185,15 +178,15 @@ TEST_CASE("bad environments are refused by file and JSON path") {
   }
   // Through the API: an HDR texture as a material's, and an environment index out of range.
   twinray::Scene<float> scene;
-  scene.add_texture(twinray::io::load_environment<float>(hdr.path));
+  scene.add_texture(twinray::io::load_environment<float>(hdr));
   twinray::Material<float> m;
   m.texture = 0;
   scene.add_material(m);
-  CHECK(error_of([&] { twinray::validate(scene); })
+  CHECK(refusal([&] { twinray::validate(scene); })
             .find("materials[0].texture: is a high-dynamic-range "
                   "image") == 0);
   scene.materials[0].texture = -1;
   scene.environment.texture = 3;
-  CHECK(error_of([&] { twinray::validate(scene); }) ==
+  CHECK(refusal([&] { twinray::validate(scene); }) ==
         "image.environment.texture: no texture with index 3 (1 defined)");
 }
