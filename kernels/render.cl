@@ -15,10 +15,10 @@
       __global const real *bvh_nodes, __global const int *bvh_prims,                     \
       __global const TrTriangleAttr *triangle_attrs, __global const TrTexture *textures, \
       __global const real *texels, __global const unsigned int *object_masks,            \
-      __global const int *triangle_faces
+      __global const TrInstance *instances, __global const int *triangle_faces
 #define TR_SCENE_ARG_NAMES                                                                     \
   params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims, triangle_attrs, \
-      textures, texels, object_masks, triangle_faces
+      textures, texels, object_masks, instances, triangle_faces
 
 static inline TrSceneRef tr_scene_ref(TR_SCENE_ARGS) {
   TrSceneRef s;
@@ -35,6 +35,7 @@ static inline TrSceneRef tr_scene_ref(TR_SCENE_ARGS) {
   s.texels = texels;
   s.object_masks = object_masks;
   s.triangle_faces = triangle_faces;
+  s.instances = instances;
   return s;
 }
 
@@ -178,5 +179,6 @@ __kernel void tr_kernel_layout_sizes(__global int* out) {
   out[9] = (int)sizeof(TrQueryRay);
   out[10] = (int)sizeof(TrQueryHit);
   out[11] = (int)sizeof(TrQueryExtras);
+  out[12] = (int)sizeof(TrInstance);
 }
 #endif

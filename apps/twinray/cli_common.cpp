@@ -303,7 +303,7 @@ std::string pixels_key(const twinray::io::SceneFile<T>& f, const std::string& pr
   for (const auto& l : f.scene.lights)
     h.value(l.position), h.value(l.intensity), h.value(l.color), h.value(l.shape), h.value(l.edge1),
         h.value(l.edge2), h.value(l.radius), h.value(l.samples);
-  for (const auto& object : f.scene.objects) {
+  auto object_key = [&](const twinray::Object<T>& object) {
     h.value(object.index());
     std::visit(
         [&](const auto& o) {
@@ -315,12 +315,20 @@ std::string pixels_key(const twinray::io::SceneFile<T>& f, const std::string& pr
             h.value(o.point), h.value(o.normal);
           } else if constexpr (std::is_same<O, twinray::Triangle<T>>::value) {
             h.value(o.vertices);
+          } else if constexpr (std::is_same<O, twinray::Instance<T>>::value) {
+            h.value(o.asset), h.value(o.to_world);
           } else {
             array(o.vertices), array(o.triangles), array(o.normals), array(o.normal_triangles);
             array(o.uvs), array(o.uv_triangles), array(o.triangle_materials);
           }
         },
         object);
+  };
+  for (const auto& object : f.scene.objects) object_key(object);
+  h.value(f.scene.assets.size());
+  for (const auto& asset : f.scene.assets) {
+    h.value(asset.objects.size());
+    for (const auto& object : asset.objects) object_key(object);
   }
   h.text(f.animation.dump());
   return h.hex();

@@ -126,9 +126,12 @@ class SceneRenderer {
   SceneRenderer(const SceneRenderer&) = delete;
   SceneRenderer& operator=(const SceneRenderer&) = delete;
 
-  // Renders `rect` of the file's frame (default: all of it).
+  // Renders `rect` of the file's frame (default: all of it). The scene is packed again
+  // where `geometry` differs from the last call's; with instances_only (only instances
+  // moved since), only its top-level BVH is built again.
   twinray::Image<T> render(const twinray::io::SceneFile<T>& file, twinray::RenderInfo* info,
-                           long long geometry = 0, twinray::PixelRect rect = {});
+                           long long geometry = 0, twinray::PixelRect rect = {},
+                           bool instances_only = false);
 
  private:
   struct State;

@@ -324,13 +324,16 @@ int make_movie(const MovieArgs& a, const std::string& text, const std::string& f
   frame.options.log = [&progress](const std::string& line) { progress.note(line); };
   SceneRenderer<T> renderer;
   const bool moves_objects = twinray::moves_objects(anim);
+  const bool moves_only_instances = twinray::moves_only_instances(anim, f.scene);
   twinray::RenderInfo info;
   // Renders frame k (on any rank) to the PNG bytes the frames folder keeps.
   auto render_frame = [&](long long k) {
     twinray::animate_into(f.scene, f.camera, anim, k, frame.scene, frame.camera);
     // One backend for the whole movie: the scene is packed again only for the frames
-    // of an animation that moves objects.
-    twinray::Image<T> image = renderer.render(frame, &info, moves_objects ? k : 0);
+    // of an animation that moves objects, and where it moves only instances, only the
+    // top-level BVH is built again (the assets are packed once per movie).
+    twinray::Image<T> image =
+        renderer.render(frame, &info, moves_objects ? k : 0, {}, moves_only_instances);
     std::vector<unsigned char> png = twinray::io::encode_png(image);
     return std::string(png.begin(), png.end());
   };

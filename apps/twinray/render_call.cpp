@@ -16,6 +16,7 @@ struct SceneRenderer<T>::State {
   int device = -1;
   long long geometry = 0;
   bool packed = false;
+  std::shared_ptr<twinray::PackedScene<T>> scene;  // what `backend` renders
 };
 
 template <class T>
@@ -27,7 +28,7 @@ SceneRenderer<T>::~SceneRenderer() = default;
 template <class T>
 twinray::Image<T> SceneRenderer<T>::render(const twinray::io::SceneFile<T>& file,
                                            twinray::RenderInfo* info, long long geometry,
-                                           twinray::PixelRect rect) {
+                                           twinray::PixelRect rect, bool instances_only) {
   State& s = *state_;
   if (!s.backend || s.requested != file.options.backend || s.device != file.options.device) {
     s.backend = twinray::make_backend<T>(file.options);
@@ -38,8 +39,11 @@ twinray::Image<T> SceneRenderer<T>::render(const twinray::io::SceneFile<T>& file
   double pack_ms = 0;
   if (!s.packed || geometry != s.geometry) {
     auto t0 = std::chrono::steady_clock::now();
-    s.backend->set_scene(
-        twinray::share(twinray::pack_scene(file.scene, s.backend->pack_options())));
+    // Where only instances moved, the assets stay packed: only the top level is built.
+    if (!(s.packed && instances_only && s.scene && twinray::update_instances(*s.scene, file.scene)))
+      s.scene = std::make_shared<twinray::PackedScene<T>>(
+          twinray::pack_scene(file.scene, s.backend->pack_options()));
+    s.backend->set_scene(s.scene);
     pack_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     s.packed = true;

@@ -123,7 +123,9 @@ class RenderThread {
       twinray::RenderInfo info;
       auto t0 = std::chrono::steady_clock::now();
       const bool moves = animation_ && twinray::moves_objects(*animation_);
-      twinray::Image<T> image = renderer_.render(frame_, &info, moves ? job.state.frame : 0);
+      const bool only_instances = moves && twinray::moves_only_instances(*animation_, base_.scene);
+      twinray::Image<T> image =
+          renderer_.render(frame_, &info, moves ? job.state.frame : 0, {}, only_instances);
       // The frame's cost, without an OpenCL program build (the first frames'), since
       // the preview size is chosen from it.
       out.result.ms = std::max(

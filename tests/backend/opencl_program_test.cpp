@@ -384,7 +384,8 @@ TEST_CASE_TEMPLATE("buffer structs have the same size in the kernel as on the ho
       int(sizeof(typename Code::Light)),    int(sizeof(T)),
       int(sizeof(typename Code::Params)),   int(sizeof(typename Code::TriangleAttr)),
       int(sizeof(typename Code::Texture)),  int(sizeof(typename Code::QueryRay)),
-      int(sizeof(typename Code::QueryHit)), int(sizeof(typename Code::QueryExtras))};
+      int(sizeof(typename Code::QueryHit)), int(sizeof(typename Code::QueryExtras)),
+      int(sizeof(typename Code::Instance))};
   CHECK(device == host);
 }
 

@@ -26,6 +26,7 @@
 #include <quadmath.h>
 
 #include <twinray/twinray.hpp>
+#include <twinray/scene/transform.hpp>
 
 #include "support/packing.hpp"
 
@@ -350,8 +351,34 @@ V3<T> far_direction() {
 // that can occlude: the image with shadow rays must equal, bit for bit, the image
 // without them; and with a glazed material, the image with reflected rays (which can
 // hit nothing, background black) must equal the one without. acne = differing pixels.
+// The map of an instanced case: the unit object scaled unevenly by `scale` x (1, 0.8,
+// 1.2), mirrored in x, turned 30 degrees about (1, 1, 0) and moved to `center`.
+inline glm::dmat4 instance_map(glm::dvec3 center, double scale) {
+  glm::dmat4 m = twinray::Transform::scale_rotate_translate({scale, 0.8 * scale, 1.2 * scale},
+                                                            {1, 1, 0}, 30.0, center)
+                     .m;
+  glm::dmat4 mirror(1.0);
+  mirror[0][0] = -1.0;
+  return m * mirror;
+}
+
+// Adds `object` (built at the origin, unit size) as the one object of an asset, placed
+// by instance_map(center, scale).
 template <class T>
-Figures case_acne(Ctx& ctx, Shape shape, double scale, double offset_sizes, int size = 40) {
+void add_instanced(twinray::Scene<T>& scene, twinray::Object<T> object, V3<T> center,
+                   double scale) {
+  twinray::Asset<T> asset;
+  asset.name = "unit";
+  asset.objects.push_back(std::move(object));
+  scene.add_instance(scene.add_asset(asset), instance_map(glm::dvec3(center), scale));
+}
+
+// With `instanced`, the sphere or mesh is an asset's unit object, placed by
+// instance_map: scaled unevenly (an ellipsoid, still convex), mirrored and turned, so
+// every hit is found in the asset's space and mapped back (device/instance.h).
+template <class T>
+Figures case_acne(Ctx& ctx, Shape shape, double scale, double offset_sizes, int size = 40,
+                  bool instanced = false) {
   const T s = T(scale);
   const V3<T> off = far_direction<T>() * T(scale * offset_sizes);
   twinray::Scene<T> scene;
@@ -361,7 +388,13 @@ Figures case_acne(Ctx& ctx, Shape shape, double scale, double offset_sizes, int 
   switch (shape) {
     case Shape::Sphere:
     case Shape::Mesh:
-      if (shape == Shape::Sphere)
+      if (instanced)
+        add_instanced(scene,
+                      shape == Shape::Sphere
+                          ? twinray::Object<T>(twinray::Sphere<T>{V3<T>(0), T(1), mat})
+                          : twinray::Object<T>(icosphere<T>(V3<T>(0), T(1), 1, mat)),
+                      off, scale);
+      else if (shape == Shape::Sphere)
         scene.add(twinray::Sphere<T>{off, s, mat});
       else
         scene.add(icosphere<T>(off, s, 1, mat));
@@ -376,7 +409,11 @@ Figures case_acne(Ctx& ctx, Shape shape, double scale, double offset_sizes, int 
       light = off + V3<T>(T(1), T(3), T(-2)) * s;
       break;
     case Shape::InsideSphere:
-      scene.add(twinray::Sphere<T>{off, s, mat});
+      if (instanced)
+        add_instanced(scene, twinray::Object<T>(twinray::Sphere<T>{V3<T>(0), T(1), mat}), off,
+                      scale);
+      else
+        scene.add(twinray::Sphere<T>{off, s, mat});
       cam = perspective<T>(off + V3<T>(T(0.2), T(0.1), T(0.3)) * s, off + V3<T>(0, 0, -1) * s,
                            V3<T>(0, 1, 0), T(2.4) * s, size, size);
       light = off + V3<T>(T(-0.3), T(0.4), T(0.2)) * s;
@@ -409,10 +446,10 @@ Figures case_acne(Ctx& ctx, Shape shape, double scale, double offset_sizes, int 
 }
 
 template <class T>
-Figures case_acne_sweep(Ctx& ctx, Shape shape) {
+Figures case_acne_sweep(Ctx& ctx, Shape shape, bool instanced = false) {
   Figures f;
   for (double s : sweep_scales())
-    for (double off : sweep_offsets()) f.add(case_acne<T>(ctx, shape, s, off));
+    for (double off : sweep_offsets()) f.add(case_acne<T>(ctx, shape, s, off, 40, instanced));
   return f;
 }
 
@@ -551,6 +588,83 @@ Figures case_watertight_closed(Ctx& ctx, V3<T> center, T radius, bool single_ray
           ++f.nonfinite;
       }
   }
+  return f;
+}
+
+// Watertight through instances: the jittered icosphere of case_watertight_closed built
+// at the origin with radius 1 and placed by instance_map(center, radius), whole or as
+// two assets (the triangles on either side of z = 0) placed by the same map, meeting at
+// a seam. Seen from a camera inside (every pixel must hit), and single rays from
+// interior points aimed exactly at every mapped vertex and edge midpoint (every one
+// must hit: at the seam, the two halves' triangles share those edges bit for bit in
+// the assets' space, and both see the same mapped ray).
+template <class T>
+Figures case_watertight_instanced(Ctx& ctx, V3<T> center, double radius, bool halves) {
+  twinray::Scene<T> scene;
+  int mat = scene.add_material(material<T>(T(0.5), T(0.5), T(0.5)));
+  twinray::Mesh<T> mesh = icosphere<T>(V3<T>(0), T(1), 3, mat, 7u, T(0.02));
+  const glm::dmat4 map = instance_map(glm::dvec3(center), radius);
+  std::vector<twinray::Mesh<T>> parts;
+  if (halves) {
+    parts.assign(2, mesh);
+    parts[0].triangles.clear();
+    parts[1].triangles.clear();
+    for (const auto& t : mesh.triangles) {
+      T z = mesh.vertices[t[0]].z + mesh.vertices[t[1]].z + mesh.vertices[t[2]].z;
+      parts[z < T(0) ? 0 : 1].triangles.push_back(t);
+    }
+  } else {
+    parts.push_back(mesh);
+  }
+  for (const auto& part : parts) {
+    twinray::Asset<T> asset;
+    asset.objects.push_back(part);
+    scene.add_instance(scene.add_asset(asset), map);
+  }
+  auto mapped = [&](const V3<T>& v) { return V3<T>(map * glm::dvec4(glm::dvec3(v), 1.0)); };
+  const T r = T(radius);
+  Figures f;
+  f.leaks = 0;
+  const int w = 48;
+  for (int view = 0; view < 3; ++view) {
+    V3<T> dir = view == 0 ? V3<T>(0, 0, -1) : view == 1 ? V3<T>(1, 0.5, 0.2) : V3<T>(-0.3, -1, 0.4);
+    V3<T> pos = center + V3<T>(T(0.1), T(-0.2), T(0.15)) * r;
+    twinray::Camera<T> cam =
+        perspective<T>(pos, pos + dir * r, V3<T>(0.3, 1, -0.2), T(3.5) * r, w, w);
+    twinray::Image<T> depth = depth_image(ctx, scene, cam);
+    for (int y = 0; y < w; ++y)
+      for (int x = 0; x < w; ++x) {
+        ++f.samples;
+        if (std::isinf(depth.pixel(x, y)[0])) ++f.leaks;
+      }
+    f.nonfinite += count_nonfinite(depth, true);
+  }
+  using K = typename twinray::device::Code<T>::template Kernel<TR_F_ALL>;
+  twinray::RenderOptions o;
+  twinray::Camera<T> cam;
+  cam.position = center + V3<T>(0, 0, 1) * r;
+  cam.look_at = center;
+  cam.up = V3<T>(0, 1, 0);
+  auto ps = test_support::pack(scene, cam, o);
+  auto sref = ps.ref();
+  std::vector<V3<T>> targets;
+  for (const auto& v : mesh.vertices) targets.push_back(mapped(v));
+  for (auto& t : mesh.triangles)
+    for (int e = 0; e < 3; ++e)
+      targets.push_back(mapped((mesh.vertices[t[e]] + mesh.vertices[t[(e + 1) % 3]]) * T(0.5)));
+  V3<T> origins[2] = {center, center + V3<T>(T(0.31), T(-0.27), T(0.19)) * T(0.5) * r};
+  for (const V3<T>& from : origins)
+    for (const V3<T>& target : targets) {
+      decltype(K::tr_camera_ray(&ps.params(), 0, 0, K::tr_sample_position(0, 0, 1, 0, 0))) ray;
+      ray.o = from;
+      ray.d = K::tr_normalize(target - from);
+      auto hit = K::tr_no_hit();
+      ++f.samples;
+      if (!K::tr_closest_hit(&sref, &ray, T(INFINITY), &hit))
+        ++f.leaks;
+      else if (!std::isfinite(hit.t))
+        ++f.nonfinite;
+    }
   return f;
 }
 

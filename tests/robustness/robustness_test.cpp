@@ -58,6 +58,40 @@ TEST_CASE_TEMPLATE(
 }
 
 TEST_CASE_TEMPLATE(
+    "acne through instances: a sphere, a mesh and a sphere from inside, each an asset placed "
+    "unevenly scaled, mirrored and turned, change no pixel, over the sweep",
+    T, float, double) {
+  for (rb::Shape shape : {rb::Shape::Sphere, rb::Shape::Mesh, rb::Shape::InsideSphere}) {
+    CAPTURE(rb::shape_name(shape));
+    on_backends([shape](rb::Ctx& c) { return rb::case_acne_sweep<T>(c, shape, true); },
+                [](const rb::Figures& f) { CHECK(f.acne == 0); });
+  }
+}
+
+TEST_CASE_TEMPLATE(
+    "watertight through instances: a closed icosphere placed whole and as two halves meeting at "
+    "a seam, scale 1e-4..1e5, far from the origin",
+    T, float, double) {
+  on_backends(
+      [](rb::Ctx& c) {
+        rb::Figures f;
+        for (bool halves : {false, true}) {
+          f.add(rb::case_watertight_instanced<T>(c, rb::V3<T>(0, 0, 0), 2.0, halves));
+          f.add(rb::case_watertight_instanced<T>(c, rb::V3<T>(T(148376), T(1234), T(-223423)), 2.0,
+                                                 halves));
+          f.add(rb::case_watertight_instanced<T>(c, rb::V3<T>(T(3e-4), T(-1e-4), T(2e-4)), 1e-4,
+                                                 halves));
+          f.add(rb::case_watertight_instanced<T>(c, rb::V3<T>(T(1e5), 0, 0), 1e5, halves));
+        }
+        return f;
+      },
+      [](const rb::Figures& f) {
+        CHECK(f.samples > 40000);
+        CHECK(f.leaks == 0);
+      });
+}
+
+TEST_CASE_TEMPLATE(
     "watertight: tiled grids, rays through shared vertices, edges and diagonals, far from the "
     "origin",
     T, float, double) {

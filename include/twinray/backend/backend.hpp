@@ -56,8 +56,10 @@ template <class T>
 using Ray = typename device::Code<T>::QueryRay;
 // The closest hit of a query ray (TrQueryHit): t, u, v, nx, ny, nz (the unit
 // geometric normal, facing the ray's origin), object (index in Scene::objects) and
-// primitive (the triangle's index in its mesh; 0 for other shapes). A miss: t = +inf,
-// object = primitive = -1.
+// primitive (the triangle's index in its mesh; 0 for other shapes), instance (-1). A
+// hit inside an instance: instance is the instance's index in Scene::objects and object
+// the object's index in its asset (as Embree's instID and geomID). A miss: t = +inf,
+// object = primitive = instance = -1.
 template <class T>
 using Hit = typename device::Code<T>::QueryHit;
 // What intersect() adds on request (TrQueryExtras): snx, sny, snz (the unit shading

@@ -406,6 +406,7 @@ TR_FN_INLINE void tr_packet_leaf(const TrSceneRef* s, TrRayPacket* pk, int first
       TrNearest nearest;
       nearest.t = pk->t[r];
       nearest.prim = pk->prim[r];
+      nearest.instance = -1;
       tr_offer_hit(&nearest, t, prim);
       pk->t[r] = nearest.t;
       pk->prim[r] = nearest.prim;
@@ -597,6 +598,7 @@ TR_FN_NOINLINE int tr_bvh_blocked(const TrSceneRef* s, const TrRay* ray, real tm
   TrNearest limit;
   limit.t = tmax;
   limit.prim = -1;
+  limit.instance = -1;
   return tr_bvh_walk(s, *ray, &limit, 1);
 }
 
@@ -629,6 +631,7 @@ TR_FN void tr_packet_bvh(const TrSceneRef* s, TrRayPacket* pk, int coherent, int
     TrNearest nearest;
     nearest.t = pk->t[r];
     nearest.prim = pk->prim[r];
+    nearest.instance = -1;
     tr_bvh_nearest(s, &pk->ray[r], &nearest);
     pk->t[r] = nearest.t;
     pk->prim[r] = nearest.prim;

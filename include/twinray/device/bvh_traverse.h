@@ -14,6 +14,16 @@
  * nodes of W - 1 entries each: 48 entries at W = 2, 72 at 4, 112 at 8. */
 #define TR_BVH_MAX_DEPTH 48
 #define TR_BVH_STACK_SIZE 112
+/* A walk through instances holds the top level's path, at most one top-level node's
+ * instances (W leaves of at most 8: pack/bvh_constants.hpp, kMaxLeafSize) over the child
+ * it had picked, a mark, and an asset's path. The stack is that large only where instances are
+ * compiled in. */
+#define TR_WALK_STACK_SIZE \
+  (TR_HAS(TR_F_INSTANCES) ? 2 * TR_BVH_STACK_SIZE + 8 * TR_BVH_MAX_WIDTH + 2 : TR_BVH_STACK_SIZE)
+/* Stack marks of the instance walk: leave the asset (back to the world's ray), and
+ * enter instance i. */
+#define TR_WALK_LEAVE (-2)
+#define TR_WALK_ENTER(i) (-3 - (i))
 
 /* Node `index` of the W-wide tree (types.h, "The BVH"): its boxes, 6 W reals, then its
  * links, 2 W ints (the room of 2 W reals in float, W in double). */
@@ -71,6 +81,29 @@ TR_FN_INLINE void tr_offer_hit(TrNearest* nearest, real t, int prim) {
   }
 }
 
+/* With instances (TR_F_INSTANCES) the order is that of (t, instance, primitive), the
+ * instance by its index in the scene's objects and -1 for the scene's own primitives
+ * (which come first): still total, so no instance order or traversal changes a pixel.
+ * inst: the hit's instance (index into instances), -1 for none. */
+TR_FN_INLINE int tr_instance_key(const TrSceneRef* s, int inst) {
+  return inst < 0 ? -1 : s->instances[inst].object;
+}
+TR_FN_INLINE void tr_offer_hit_in(const TrSceneRef* s, TrNearest* nearest, real t, int prim,
+                                  int inst) {
+  if (!TR_HAS(TR_F_INSTANCES)) {
+    tr_offer_hit(nearest, t, prim);
+    return;
+  }
+  if (!(t > TR_R(0.0)) || t > nearest->t) return;
+  if (t == nearest->t) {
+    int key = tr_instance_key(s, inst), nearest_key = tr_instance_key(s, nearest->instance);
+    if (key > nearest_key || (key == nearest_key && prim >= nearest->prim)) return;
+  }
+  nearest->t = t;
+  nearest->prim = prim;
+  nearest->instance = inst;
+}
+
 /* Ray queries (ray_query.h) order hits by (t, object, primitive in its object), the
  * scene's own numbering, which no packing or BVH changes: this is a primitive's key
  * after t. Ids as in TrNearest. */
@@ -92,13 +125,20 @@ TR_FN_INLINE int tr_query_face(const TrSceneRef* s, int prim) {
  * and > 0, and before it in the order of t, then object, then primitive. While there
  * is none (nearest_prim < 0, nearest_t the ray's tmax) a hit at exactly tmax is kept:
  * the interval is closed. The keys are read on exact ties of t only. */
-TR_FN_INLINE int tr_query_precedes(const TrSceneRef* s, real t, int prim, real tmin, real nearest_t,
-                                   int nearest_prim) {
+TR_FN_INLINE int tr_query_precedes_in(const TrSceneRef* s, real t, int inst, int prim, real tmin,
+                                      real nearest_t, int nearest_inst, int nearest_prim) {
   if (!(t > TR_R(0.0)) || !(t >= tmin) || !(t <= nearest_t)) return 0;
   if (t < nearest_t || nearest_prim < 0) return 1;
+  if (TR_HAS(TR_F_INSTANCES) && inst != nearest_inst)
+    return tr_instance_key(s, inst) < tr_instance_key(s, nearest_inst);
   int object = tr_query_object(s, prim), nearest_object = tr_query_object(s, nearest_prim);
   return object < nearest_object ||
          (object == nearest_object && tr_query_face(s, prim) < tr_query_face(s, nearest_prim));
+}
+/* The same for two hits outside instances. */
+TR_FN_INLINE int tr_query_precedes(const TrSceneRef* s, real t, int prim, real tmin, real nearest_t,
+                                   int nearest_prim) {
+  return tr_query_precedes_in(s, t, -1, prim, tmin, nearest_t, -1, nearest_prim);
 }
 
 /* Whether a query ray with mask ray_mask skips primitive prim: its object's mask
@@ -256,6 +296,18 @@ TR_FN_INLINE int tr_inner_order(unsigned inner, const real* t_entry, real tmax_g
  * gives (node indices first[]), with the others pushed (nearest first: farthest pushed
  * first; bit order: in bit order); else the top of the stack, skipping entries entered
  * beyond tmax_grown. -1 when the walk is done. */
+/* The top of the walk's stack, skipping entries entered beyond tmax_grown; -1 when it
+ * is empty. Entries below -1 are the instance walk's marks (TR_WALK_ENTER, _LEAVE). */
+TR_FN_INLINE int tr_walk_pop(real tmax_grown, const int* stack_node, const real* stack_t,
+                             int* top) {
+  int next = -1;
+  while (next == -1 && *top > 0) {
+    --*top;
+    if (!(stack_t[*top] > tmax_grown)) next = stack_node[*top];
+  }
+  return next;
+}
+
 TR_FN_INLINE int tr_walk_next(unsigned inner, const real* t_entry, TR_GLOBAL const int* first,
                               real tmax_grown, int nearest_first, int* stack_node, real* stack_t,
                               int* top) {
@@ -264,16 +316,13 @@ TR_FN_INLINE int tr_walk_next(unsigned inner, const real* t_entry, TR_GLOBAL con
   int next = n > 0 ? first[order[0]] : -1;
   for (int i = 1; i < n; ++i) {
     int k = order[nearest_first ? n - i : i];
-    if (*top < TR_BVH_STACK_SIZE) {
+    if (*top < TR_WALK_STACK_SIZE) {
       stack_node[*top] = first[k];
       stack_t[*top] = t_entry[k];
       ++*top;
     }
   }
-  while (next < 0 && *top > 0) {
-    --*top;
-    if (!(stack_t[*top] > tmax_grown)) next = stack_node[*top];
-  }
+  if (next == -1) next = tr_walk_pop(tmax_grown, stack_node, stack_t, top);
   return next;
 }
 
@@ -293,25 +342,59 @@ TR_FN_INLINE int tr_walk_next(unsigned inner, const real* t_entry, TR_GLOBAL con
  * many rays miss every box. With `query` 1 (a constant: ray queries, ray_query.h) the
  * leaves take hits in [tmin, nearest->t] in tr_query_precedes's order and skip the
  * objects ray_mask excludes; the renderer passes 0, which leaves none of that in its
- * walk. */
+ * walk.
+ * The walk starts at node `root`. With `instances` 1 (a constant) the tree is the top
+ * level (TR_F_INSTANCES): its leaves list instances, each pushed as a mark; a mark
+ * taken from the stack maps the ray into the instance's asset (instance.h), pushes a
+ * mark to leave it and walks on from the asset's root, so one loop and one stack walk
+ * both levels (OpenCL C has no recursion). Hits inside an instance are ordered by
+ * (t, instance, primitive) (tr_offer_hit_in). */
 TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nearest, int any_hit,
-                                  int W, int query, real tmin, unsigned int ray_mask) {
-  if (s->params->n_bvh_nodes <= 0) return 0;
+                                  int W, int query, real tmin, unsigned int ray_mask, int root,
+                                  int instances) {
+  if (root < 0) return 0;
+  /* The ray the walk tests boxes and primitives with: the world's, or inside an
+   * instance (inst >= 0) the asset's view of it (instance.h). */
+  TrRay cur = ray;
+  int inst = -1;
   TrBoxRay box_ray = tr_box_ray(ray);
   TrTriangleRay tri_ray;
   int have_tri_ray = 0;
   real grow = tr_box_grow();
-  int stack_node[TR_BVH_STACK_SIZE];
-  real stack_t[TR_BVH_STACK_SIZE];
+  int stack_node[TR_WALK_STACK_SIZE];
+  real stack_t[TR_WALK_STACK_SIZE];
   int top = 0;
-  int index = 0;
+  int index = root;
   for (;;) {
+    if (instances && index < -1) {
+      /* A mark of the top level (instances 1, a constant): enter an instance's asset,
+       * or leave it for the world's ray and the rest of the stack. */
+      if (index == TR_WALK_LEAVE) {
+        cur = ray;
+        inst = -1;
+        index = -1;
+      } else {
+        inst = TR_WALK_ENTER(0) - index;
+        cur = tr_instance_ray(&s->instances[inst], ray);
+        stack_node[top] = TR_WALK_LEAVE; /* room: TR_WALK_STACK_SIZE */
+        stack_t[top] = TR_R(0.0);
+        ++top;
+        index = s->instances[inst].root;
+      }
+      box_ray = tr_box_ray(cur);
+      have_tri_ray = 0;
+      if (index == -1) {
+        index = tr_walk_pop(nearest->t * grow, stack_node, stack_t, &top);
+        if (index == -1) break;
+        continue;
+      }
+    }
     TR_GLOBAL const real* node = tr_bvh_node(s, index, W);
     TR_GLOBAL const int* first = tr_bvh_node_links(node, W);
     TR_GLOBAL const int* count = first + W;
     real t_entry[TR_BVH_MAX_WIDTH];
     unsigned mask = tr_ray_hits_boxes(node, &box_ray, nearest->t * grow, W, t_entry);
-    unsigned inner = 0u;
+    unsigned inner = 0u, leaves = 0u;
     while (mask != 0u) {
       int k = TR_LOWEST_BIT(mask);
       mask &= mask - 1u;
@@ -319,23 +402,31 @@ TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nea
         inner |= count[k] == 0 ? 1u << k : 0u;
         continue;
       }
+      if (instances && inst < 0) {
+        leaves |= 1u << k; /* a top-level leaf: its instances are marked below */
+        continue;
+      }
       if (!have_tri_ray) {
-        tri_ray = tr_triangle_ray(ray);
+        tri_ray = tr_triangle_ray(cur);
         have_tri_ray = 1;
       }
       for (int i = first[k]; i < first[k] + count[k]; ++i) {
         int prim = tr_bvh_prim(s, i);
-        if (query && tr_query_skips(s, prim, ray_mask)) continue;
-        real t = query ? tr_primitive_t_from(s, prim, ray, &tri_ray, tmin)
-                       : tr_primitive_t(s, prim, ray, &tri_ray);
+        if (query && inst < 0 && tr_query_skips(s, prim, ray_mask)) continue;
+        real t = query ? tr_primitive_t_from(s, prim, cur, &tri_ray, tmin)
+                       : tr_primitive_t(s, prim, cur, &tri_ray);
         if (query) {
-          if (tr_query_precedes(s, t, prim, tmin, nearest->t, nearest->prim)) {
+          if (tr_query_precedes_in(s, t, inst, prim, tmin, nearest->t, nearest->instance,
+                                   nearest->prim)) {
             if (any_hit) return 1;
             nearest->t = t;
             nearest->prim = prim;
+            nearest->instance = inst;
           }
         } else if (any_hit) {
           if (t > TR_R(0.0) && t < nearest->t) return 1;
+        } else if (instances) {
+          tr_offer_hit_in(s, nearest, t, prim, inst);
         } else {
           tr_offer_hit(nearest, t, prim);
         }
@@ -343,10 +434,43 @@ TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nea
     }
     int next =
         tr_walk_next(inner, t_entry, first, nearest->t * grow, !any_hit, stack_node, stack_t, &top);
-    if (next < 0) break;
+    if (instances && leaves != 0u) {
+      /* The instances of the top-level leaves the ray enters go first, as marks over
+       * the child the walk had picked (put back). Room: TR_WALK_STACK_SIZE. */
+      if (next != -1) {
+        stack_node[top] = next;
+        stack_t[top] = TR_R(0.0);
+        ++top;
+      }
+      for (; leaves != 0u; leaves &= leaves - 1u) {
+        int k = TR_LOWEST_BIT(leaves);
+        for (int i = first[k]; i < first[k] + count[k]; ++i) {
+          if (query && tr_use(s, TR_F_MASKS) && (s->instances[i].mask & ray_mask) == 0u) continue;
+          stack_node[top] = TR_WALK_ENTER(i);
+          stack_t[top] = t_entry[k];
+          ++top;
+        }
+      }
+      next = tr_walk_pop(nearest->t * grow, stack_node, stack_t, &top);
+    }
+    if (next == -1) break;
     index = next;
   }
   return any_hit ? 0 : nearest->prim >= 0;
+}
+
+/* The walk over the scene's own primitives, then (TR_F_INSTANCES) over its instances:
+ * two trees, one walk each. */
+TR_FN_INLINE int tr_bvh_walk_roots(const TrSceneRef* s, TrRay ray, TrNearest* nearest, int any_hit,
+                                   int W, int query, real tmin, unsigned int ray_mask) {
+  int scene_root =
+      TR_HAS(TR_F_INSTANCES) ? s->params->scene_root : (s->params->n_bvh_nodes > 0 ? 0 : -1);
+  int found = tr_bvh_walk_wide(s, ray, nearest, any_hit, W, query, tmin, ray_mask, scene_root, 0);
+  if (!TR_HAS(TR_F_INSTANCES)) return found;
+  if (found && any_hit) return 1;
+  found = tr_bvh_walk_wide(s, ray, nearest, any_hit, W, query, tmin, ray_mask,
+                           s->params->instance_root, 1);
+  return any_hit ? found : nearest->prim >= 0;
 }
 
 /* The walk for the width the scene's BVH was built with. Each width is compiled only
@@ -354,9 +478,12 @@ TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nea
  * hit and any hit each get a walk of their own. */
 TR_FN_INLINE int tr_bvh_walk(const TrSceneRef* s, TrRay ray, TrNearest* nearest, int any_hit) {
   unsigned int all = 0xffffffffu;
-  if (tr_use(s, TR_F_BVH8)) return tr_bvh_walk_wide(s, ray, nearest, any_hit, 8, 0, TR_R(0.0), all);
-  if (tr_use(s, TR_F_BVH4)) return tr_bvh_walk_wide(s, ray, nearest, any_hit, 4, 0, TR_R(0.0), all);
-  if (tr_use(s, TR_F_BVH2)) return tr_bvh_walk_wide(s, ray, nearest, any_hit, 2, 0, TR_R(0.0), all);
+  if (tr_use(s, TR_F_BVH8))
+    return tr_bvh_walk_roots(s, ray, nearest, any_hit, 8, 0, TR_R(0.0), all);
+  if (tr_use(s, TR_F_BVH4))
+    return tr_bvh_walk_roots(s, ray, nearest, any_hit, 4, 0, TR_R(0.0), all);
+  if (tr_use(s, TR_F_BVH2))
+    return tr_bvh_walk_roots(s, ray, nearest, any_hit, 2, 0, TR_R(0.0), all);
   return 0;
 }
 
@@ -364,8 +491,11 @@ TR_FN_INLINE int tr_bvh_walk(const TrSceneRef* s, TrRay ray, TrNearest* nearest,
  * tr_query_precedes, objects the ray's mask excludes skipped. */
 TR_FN_INLINE int tr_bvh_walk_query(const TrSceneRef* s, TrRay ray, TrNearest* nearest, int any_hit,
                                    real tmin, unsigned int ray_mask) {
-  if (tr_use(s, TR_F_BVH8)) return tr_bvh_walk_wide(s, ray, nearest, any_hit, 8, 1, tmin, ray_mask);
-  if (tr_use(s, TR_F_BVH4)) return tr_bvh_walk_wide(s, ray, nearest, any_hit, 4, 1, tmin, ray_mask);
-  if (tr_use(s, TR_F_BVH2)) return tr_bvh_walk_wide(s, ray, nearest, any_hit, 2, 1, tmin, ray_mask);
+  if (tr_use(s, TR_F_BVH8))
+    return tr_bvh_walk_roots(s, ray, nearest, any_hit, 8, 1, tmin, ray_mask);
+  if (tr_use(s, TR_F_BVH4))
+    return tr_bvh_walk_roots(s, ray, nearest, any_hit, 4, 1, tmin, ray_mask);
+  if (tr_use(s, TR_F_BVH2))
+    return tr_bvh_walk_roots(s, ray, nearest, any_hit, 2, 1, tmin, ray_mask);
   return 0;
 }

@@ -35,6 +35,7 @@ struct Kernel {
 // for an instantiation that compiles only the working structs and the functions again.
 #define TWINRAY_DEVICE_SHARE_BUFFER_STRUCTS(ns) \
   using ns::TrBoxPlanes;                        \
+  using ns::TrInstance;                         \
   using ns::TrLight;                            \
   using ns::TrMaterial;                         \
   using ns::TrParams;                           \
@@ -124,10 +125,12 @@ static_assert(sizeof(f32::TrTriangleAttr) == 68 && sizeof(f64::TrTriangleAttr) =
               "TrTriangleAttr layout");
 static_assert(sizeof(f32::TrTexture) == 16 && sizeof(f64::TrTexture) == 16, "TrTexture layout");
 static_assert(sizeof(f32::TrLight) == 64 && sizeof(f64::TrLight) == 120, "TrLight layout");
-static_assert(sizeof(f32::TrParams) == 120 + 92 && sizeof(f64::TrParams) == 240 + 92 + 4,
+static_assert(sizeof(f32::TrParams) == 120 + 104 && sizeof(f64::TrParams) == 240 + 104,
               "TrParams layout");
+static_assert(sizeof(f32::TrInstance) == 112 && sizeof(f64::TrInstance) == 208,
+              "TrInstance layout");
 static_assert(sizeof(f32::TrQueryRay) == 40 && sizeof(f64::TrQueryRay) == 72, "TrQueryRay layout");
-static_assert(sizeof(f32::TrQueryHit) == 32 && sizeof(f64::TrQueryHit) == 56, "TrQueryHit layout");
+static_assert(sizeof(f32::TrQueryHit) == 40 && sizeof(f64::TrQueryHit) == 64, "TrQueryHit layout");
 static_assert(sizeof(f32::TrQueryExtras) == 24 && sizeof(f64::TrQueryExtras) == 48,
               "TrQueryExtras layout");
 
@@ -163,6 +166,7 @@ struct Code<float> {
   using TriangleAttr = f32::TrTriangleAttr;
   using Texture = f32::TrTexture;
   using Light = f32::TrLight;
+  using Instance = f32::TrInstance;
   using Params = f32::TrParams;
   using SceneRef = f32::TrSceneRef;
   using Ray = f32::TrRay;
@@ -195,6 +199,7 @@ struct Code<double> {
   using TriangleAttr = f64::TrTriangleAttr;
   using Texture = f64::TrTexture;
   using Light = f64::TrLight;
+  using Instance = f64::TrInstance;
   using Params = f64::TrParams;
   using SceneRef = f64::TrSceneRef;
   using Ray = f64::TrRay;

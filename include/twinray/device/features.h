@@ -24,7 +24,8 @@
 #define TR_F_DIELECTRIC 0x4000u   /* some material transmits (glass: trace.h, dielectric.h) */
 #define TR_F_AREA_LIGHTS 0x8000u  /* some light is a rect or a sphere (area_light.h) */
 #define TR_F_ENVIRONMENT 0x10000u /* rays that miss see an environment image (environment.h) */
-#define TR_F_ALL 0x1ffffu         /* the generic program: every feature compiled in */
+#define TR_F_INSTANCES 0x20000u   /* assets placed by instances: a two-level BVH (instance.h) */
+#define TR_F_ALL 0x3ffffu         /* the generic program: every feature compiled in */
 /* A BVH of any width. A packed scene with a BVH sets exactly one of the three bits: the
  * width its nodes were built for (pack/bvh.hpp). */
 #define TR_F_BVH (TR_F_BVH2 | TR_F_BVH4 | TR_F_BVH8)

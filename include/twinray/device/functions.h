@@ -10,6 +10,7 @@
 #include "intersect_triangle.h"
 #include "intersect_plane.h"
 #include "ray_offset.h"
+#include "instance.h"
 #include "bvh_traverse.h"
 #include "bvh_packet.h"
 #include "scene_hit.h"

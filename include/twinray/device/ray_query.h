@@ -31,9 +31,11 @@ TR_FN_INLINE int tr_query_ray_valid(TR_GLOBAL const TrQueryRay* r) {
  * query is answered by it. */
 TR_FN_INLINE int tr_query_take(const TrSceneRef* s, TrNearest* nearest, real t, int prim, real tmin,
                                int any_hit) {
-  if (!tr_query_precedes(s, t, prim, tmin, nearest->t, nearest->prim)) return 0;
+  if (!tr_query_precedes_in(s, t, -1, prim, tmin, nearest->t, nearest->instance, nearest->prim))
+    return 0;
   nearest->t = t;
   nearest->prim = prim;
+  nearest->instance = -1;
   return any_hit;
 }
 
@@ -154,6 +156,8 @@ TR_FN void tr_query_write(const TrSceneRef* s, TrRay ray, TrNearest nearest, int
   h.nz = TR_R(0.0);
   h.object = -1;
   h.primitive = -1;
+  h.instance = -1;
+  h.pad0 = 0;
   TrQueryExtras e;
   e.snx = TR_R(0.0);
   e.sny = TR_R(0.0);
@@ -162,8 +166,20 @@ TR_FN void tr_query_write(const TrSceneRef* s, TrRay ray, TrNearest nearest, int
   e.tex_v = TR_R(0.0);
   e.pad0 = TR_R(0.0);
   if (found) {
+    /* A hit in an instance is recorded, and its surface parameters taken, in the
+     * asset's space; then the record comes to the world (instance.h). */
+    int in_instance = TR_HAS(TR_F_INSTANCES) && nearest.instance >= 0;
+    TrRay asset_ray = in_instance ? tr_instance_ray(&s->instances[nearest.instance], ray) : ray;
+    TrNearest asset_nearest = nearest;
+    asset_nearest.instance = -1;
     TrHit hit;
-    tr_record_hit(s, ray, nearest, &hit);
+    tr_record_hit(s, asset_ray, asset_nearest, &hit);
+    tr_query_surface_uv(s, asset_ray, asset_nearest, &hit, &h.u, &h.v);
+    int object = hit.object; /* in an instance: the object's index in its asset */
+    if (in_instance) {
+      h.instance = s->instances[nearest.instance].object;
+      tr_instance_hit_to_world(&s->instances[nearest.instance], &hit);
+    }
     /* The normal faces the side the ray comes from. */
     int flip = tr_dot(hit.n, ray.d) > TR_R(0.0);
     vec3 n = flip ? -hit.n : hit.n;
@@ -171,9 +187,8 @@ TR_FN void tr_query_write(const TrSceneRef* s, TrRay ray, TrNearest nearest, int
     h.nx = n.x;
     h.ny = n.y;
     h.nz = n.z;
-    h.object = hit.object;
+    h.object = object;
     h.primitive = tr_query_face(s, nearest.prim);
-    tr_query_surface_uv(s, ray, nearest, &hit, &h.u, &h.v);
     if ((extra_flags & TR_QUERY_SHADING_NORMAL) != 0) {
       vec3 ns = flip ? -hit.ns : hit.ns;
       e.snx = ns.x;
@@ -199,6 +214,7 @@ TR_FN void tr_query_intersect(const TrSceneRef* s, TR_GLOBAL const TrQueryRay* i
   TrNearest nearest;
   nearest.t = in->tmax;
   nearest.prim = -1;
+  nearest.instance = -1;
   int found = tr_query_ray_valid(in) && tr_query_search(s, ray, in->tmin, in->mask, &nearest, 0);
   tr_query_write(s, ray, nearest, found, out, extras, extra_flags);
 }
@@ -210,6 +226,7 @@ TR_FN int tr_query_occluded(const TrSceneRef* s, TR_GLOBAL const TrQueryRay* in)
   TrNearest limit;
   limit.t = in->tmax;
   limit.prim = -1;
+  limit.instance = -1;
   return tr_query_search(s, tr_query_ray(in), in->tmin, in->mask, &limit, 1);
 }
 
@@ -318,6 +335,7 @@ TR_FN_INLINE int tr_query_packet_bvh(const TrSceneRef* s, TrQueryPacket* qp, int
     TrNearest nearest;
     nearest.t = pk->t[r];
     nearest.prim = pk->prim[r];
+    nearest.instance = -1;
     int blocked =
         tr_bvh_walk_query(s, pk->ray[r], &nearest, any_hit, qp->lanes.tmin[r], qp->lanes.mask[r]) &&
         any_hit;
@@ -341,7 +359,9 @@ TR_FN_INLINE int tr_query_rays(const TrSceneRef* s, TrQueryPacket* qp,
   for (int at = 0; at < n; at += TR_QUERY_RUN) {
     int m = n - at < TR_QUERY_RUN ? n - at : TR_QUERY_RUN;
     TR_GLOBAL const TrQueryRay* run = in + at;
-    tr_query_group_run(qp, run, m, tr_use(s, TR_F_BVH8) ? by_octant : -1);
+    /* Instances are walked ray by ray. */
+    tr_query_group_run(qp, run, m,
+                       tr_use(s, TR_F_BVH8) && !tr_use(s, TR_F_INSTANCES) ? by_octant : -1);
     for (int k = 0; k < 8; ++k)
       for (int j = qp->group_start[k]; j < qp->group_start[k + 1]; j += TR_PACKET_MAX) {
         int end = qp->group_start[k + 1];
@@ -353,6 +373,7 @@ TR_FN_INLINE int tr_query_rays(const TrSceneRef* s, TrQueryPacket* qp,
           TrNearest nearest;
           nearest.t = pk->t[r];
           nearest.prim = any_hit ? -1 : pk->prim[r];
+          nearest.instance = -1;
           int b = (any_hit && pk->t[r] < TR_R(0.0)) ||
                   tr_query_planes(s, pk->ray[r], qp->lanes.tmin[r], qp->lanes.mask[r], &nearest,
                                   any_hit);

@@ -13,9 +13,12 @@
  * *hit_out, g++ merged the primitive's stores into one 32-byte store and then read the
  * normal back across its end to copy it into ns, a store-forwarding stall on every hit
  * (docs/performance.md). */
-TR_FN void tr_record_hit(const TrSceneRef* s, TrRay ray, TrNearest nearest, TrHit* hit_out) {
+TR_FN void tr_record_hit(const TrSceneRef* s, TrRay world_ray, TrNearest nearest, TrHit* hit_out) {
   TrHit record;
   TrHit* hit = &record;
+  /* A hit in an instance is recorded in its asset's space, then brought to the world. */
+  int in_instance = TR_HAS(TR_F_INSTANCES) && nearest.instance >= 0;
+  TrRay ray = in_instance ? tr_instance_ray(&s->instances[nearest.instance], world_ray) : world_ray;
   int n_spheres = s->params->n_spheres;
   int n_bounded = n_spheres + s->params->n_triangles;
   int prim = nearest.prim;
@@ -37,6 +40,7 @@ TR_FN void tr_record_hit(const TrSceneRef* s, TrRay ray, TrNearest nearest, TrHi
   hit->v = TR_R(0.0);
   if (tr_use(s, TR_F_ATTRIBUTES) && triangle >= 0)
     tr_triangle_attributes(&s->triangle_attrs[triangle], &s->triangles[triangle], bary, ray.d, hit);
+  if (in_instance) tr_instance_hit_to_world(&s->instances[nearest.instance], hit);
   *hit_out = record;
 }
 
@@ -47,7 +51,7 @@ TR_FN_INLINE int tr_closest_hit_finish(const TrSceneRef* s, TrRay ray, TrNearest
   if (TR_HAS(TR_F_PLANES)) {
     int n_bounded = s->params->n_spheres + s->params->n_triangles;
     for (int i = 0; i < s->params->n_planes; ++i)
-      tr_offer_hit(&nearest, tr_plane_t(&s->planes[i], ray), n_bounded + i);
+      tr_offer_hit_in(s, &nearest, tr_plane_t(&s->planes[i], ray), n_bounded + i, -1);
   }
   if (nearest.prim < 0) return 0;
   tr_record_hit(s, ray, nearest, hit);
@@ -63,6 +67,7 @@ TR_FN_OUTLINE int tr_closest_hit(const TrSceneRef* s, const TrRay* ray_in, real 
   TrNearest nearest;
   nearest.t = tmax;
   nearest.prim = -1;
+  nearest.instance = -1;
   int n_spheres = s->params->n_spheres;
   TR_COUNT_RAY();
   if (tr_use(s, TR_F_BVH)) {
@@ -100,6 +105,7 @@ TR_FN_OUTLINE int tr_any_hit(const TrSceneRef* s, const TrRay* ray_in, real tmax
     TrNearest limit;
     limit.t = tmax;
     limit.prim = -1;
+    limit.instance = -1;
     if (tr_bvh_walk(s, ray, &limit, 1)) return 1;
   } else {
     if (TR_HAS(TR_F_SPHERES)) {
@@ -141,7 +147,7 @@ TR_FN_INLINE void tr_packet_planes(const TrSceneRef* s, TrRayPacket* pk, int any
  * (bvh_packet.h); the answers are those of tr_closest_hit, ray by ray. */
 TR_FN_OUTLINE void tr_closest_hit_packet(const TrSceneRef* s, TrRayPacket* pk, TrHit* hit,
                                          int* found) {
-  if (!tr_use(s, TR_F_BVH)) {
+  if (!tr_use(s, TR_F_BVH) || tr_use(s, TR_F_INSTANCES)) {
     for (int r = 0; r < pk->n; ++r) {
       tr_set_no_hit(&hit[r]);
       found[r] = tr_closest_hit(s, &pk->ray[r], TR_R(INFINITY), &hit[r]);
@@ -158,6 +164,7 @@ TR_FN_OUTLINE void tr_closest_hit_packet(const TrSceneRef* s, TrRayPacket* pk, T
     TrNearest nearest;
     nearest.t = pk->t[r];
     nearest.prim = pk->prim[r];
+    nearest.instance = -1;
     TR_COUNT_RAY();
     found[r] = nearest.prim >= 0;
     if (found[r])
@@ -169,7 +176,7 @@ TR_FN_OUTLINE void tr_closest_hit_packet(const TrSceneRef* s, TrRayPacket* pk, T
 
 /* tr_any_hit for the packet's rays, ray r's tmax in pk->t[r]: blocked[r]. */
 TR_FN_OUTLINE void tr_any_hit_packet(const TrSceneRef* s, TrRayPacket* pk, int* blocked) {
-  if (!tr_use(s, TR_F_BVH)) {
+  if (!tr_use(s, TR_F_BVH) || tr_use(s, TR_F_INSTANCES)) {
     for (int r = 0; r < pk->n; ++r) blocked[r] = tr_any_hit(s, &pk->ray[r], pk->t[r]);
     return;
   }

@@ -74,6 +74,21 @@ typedef struct TrLight {
   int pad0;
 } TrLight;
 
+/* One placement of an asset (scene/instance.hpp, device/instance.h): the affine maps
+ * from world to the asset's space and back, each 3 rows of (x, y, z, translation),
+ * computed once on the host in double and rounded to real. The asset's primitives lie
+ * in the packed arrays like any others, in its own space, under its own BVH (root node
+ * `root`); the top-level BVH's leaves list instances (bvh_traverse.h). */
+typedef struct TrInstance {
+  real to_object[12];
+  real to_world[12];
+  int root;          /* the asset's BVH root node */
+  int object;        /* the instance's index in the scene's objects: its key in the hit
+                        order and its object AOV value */
+  int material;      /* replaces the asset's materials; -1: keeps them */
+  unsigned int mask; /* ray queries skip the instance where it shares no bit with the ray's */
+} TrInstance;
+
 /* The BVH, W children per node (W = 2, 4 or 8: the TR_F_BVH2/4/8 bit of the scene), in
  * one buffer, bvh_nodes, node after node (bvh_traverse.h tr_bvh_node). No struct: its
  * size would depend on W. A node holds
@@ -134,6 +149,9 @@ typedef struct TrParams {
   int n_spheres, n_triangles, n_planes, n_lights, n_bvh_nodes;
   int features;    /* the run-time Features mask: switches inside the compiled ones */
   int environment; /* the environment's texture index; -1: none (the background color) */
+  /* The BVH's roots (bvh_traverse.h): the scene's own spheres and triangles, and the
+   * top level over its instances (TR_F_INSTANCES); -1 where there is none. */
+  int scene_root, instance_root, n_instances;
 } TrParams;
 
 /* A ray of a user's query (ray_query.h; twinray::Ray<T> on the host): origin o,
@@ -153,6 +171,9 @@ typedef struct TrQueryRay {
 typedef struct TrQueryHit {
   real t, u, v, nx, ny, nz;
   int object, primitive;
+  int instance; /* the instance's index in the scene's objects, with `object` the object's
+                   index in its asset (as Embree's instID and geomID); -1 outside instances */
+  int pad0;
 } TrQueryHit;
 
 /* What a query adds to a hit on request (twinray::HitExtras): the unit shading normal
@@ -183,6 +204,7 @@ typedef struct TrSceneRef {
    * and each triangle's index in its mesh, in the triangles' packed order. */
   TR_GLOBAL const unsigned int* object_masks;
   TR_GLOBAL const int* triangle_faces;
+  TR_GLOBAL const TrInstance* instances; /* in the top-level BVH's leaf order */
 } TrSceneRef;
 #endif /* TR_WORKING_TYPES_ONLY */
 
@@ -225,6 +247,7 @@ typedef struct TrHit {
 typedef struct TrNearest {
   real t;
   int prim;
+  int instance; /* where the hit is in an asset: the instance (index into instances), else -1 */
 } TrNearest;
 
 /* A packet of rays walked together (bvh_packet.h): the rays, their box-test and

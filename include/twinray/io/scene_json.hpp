@@ -119,9 +119,9 @@ class SceneReader : public JsonReader<T> {
 
   void read(const Json& root, SceneFile<T>& out) {
     require_object(root, "");
-    check_keys(
-        root, "",
-        {"twinray", "image", "camera", "render", "materials", "lights", "objects", "animation"});
+    check_keys(root, "",
+               {"twinray", "image", "camera", "render", "materials", "lights", "assets", "objects",
+                "animation"});
     long long version = integer(require(root, "", "twinray"), "twinray", 0, 1 << 30);
     if (version != kSceneFormatVersion)
       fail("twinray", "unsupported format version " + std::to_string(version) +
@@ -133,6 +133,7 @@ class SceneReader : public JsonReader<T> {
     if (const Json* r = optional(root, "render")) read_render(*r, out.options);
     if (const Json* m = optional(root, "materials")) read_materials(*m, out);
     if (const Json* l = optional(root, "lights")) read_lights(*l, out.scene);
+    if (const Json* a = optional(root, "assets")) read_assets(*a, out);
     if (const Json* o = optional(root, "objects")) read_objects(*o, out);
     if (const Json* a = optional(root, "animation")) {
       require_object(*a, "animation");
@@ -370,53 +371,108 @@ class SceneReader : public JsonReader<T> {
       fail("objects", std::to_string(objects.size()) + " objects, more than the limit of " +
                           std::to_string(limits_.max_objects));
     out.scene.objects.reserve(objects.size());
-    for (size_t i = 0; i < objects.size(); ++i) {
-      std::string path = index_path("objects", i);
-      const Json& o = objects[i];
-      require_object(o, path);
-      std::string type = choice(require(o, path, "type"), key_path(path, "type"),
-                                {"sphere", "plane", "triangle", "mesh"});
-      if (type == "sphere") {
-        check_keys(o, path, {"type", "center", "radius", "material", "transform", "mask"});
-        Sphere<T> s;
-        s.center = vector3(require(o, path, "center"), key_path(path, "center"));
-        s.radius =
-            scalar(require(o, path, "radius"), key_path(path, "radius"), 0.0, INFINITY, true);
-        s.material = material_ref(o, path, out);
-        s.mask = read_mask(o, path);
-        add_placed(o, path, Object<T>(s), out);
-      } else if (type == "plane") {
-        check_keys(o, path, {"type", "point", "normal", "material", "transform", "mask"});
-        Plane<T> p;
-        p.point = vector3(require(o, path, "point"), key_path(path, "point"));
-        p.normal = vector3(require(o, path, "normal"), key_path(path, "normal"));
-        T len = glm::length(p.normal);
-        if (!(len > T(0)) || !std::isfinite(len))
-          fail(key_path(path, "normal"),
-               "must be a non-zero vector of finite length, got " + show(o["normal"]));
-        p.material = material_ref(o, path, out);
-        p.mask = read_mask(o, path);
-        add_placed(o, path, Object<T>(p), out);
-      } else if (type == "triangle") {
-        check_keys(o, path, {"type", "vertices", "material", "transform", "mask"});
-        std::string vpath = key_path(path, "vertices");
-        const Json& v = require(o, path, "vertices");
-        if (!v.is_array() || v.size() != 3)
-          fail(vpath, "must be an array of 3 points, got " + kind_of(v));
-        count_triangles(1, path);
-        Triangle<T> t;
-        for (size_t k = 0; k < 3; ++k) t.vertices[k] = vector3(v[k], index_path(vpath, k));
-        t.material = material_ref(o, path, out);
-        t.mask = read_mask(o, path);
-        add_placed(o, path, Object<T>(t), out);
+    for (size_t i = 0; i < objects.size(); ++i)
+      out.scene.add(read_object(objects[i], index_path("objects", i), out, false));
+  }
+
+  // `assets`: {name: an object or a list of objects}, each packed once and placed by
+  // instance objects (scene/instance.hpp).
+  void read_assets(const Json& assets, SceneFile<T>& out) {
+    require_object(assets, "assets");
+    for (auto it = assets.begin(); it != assets.end(); ++it) {
+      std::string path = key_path("assets", it.key());
+      Asset<T> asset;
+      asset.name = it.key();
+      const Json& v = it.value();
+      if (v.is_array()) {
+        if (v.empty()) fail(path, "an asset holds at least one object, got an empty list");
+        for (size_t i = 0; i < v.size(); ++i)
+          asset.objects.push_back(read_object(v[i], index_path(path, i), out, true));
+      } else if (v.is_object()) {
+        asset.objects.push_back(read_object(v, path, out, true));
       } else {
-        add_placed(o, path, Object<T>(read_mesh(o, path, out)), out);
+        fail(path, "must be an object or a list of objects, got " + kind_of(v));
       }
+      asset_names_.emplace(it.key(), out.scene.add_asset(asset));
     }
   }
 
-  // Adds the object, placed by its "transform" when it has one (scene/transform.hpp).
-  void add_placed(const Json& o, const std::string& path, Object<T> object, SceneFile<T>& out) {
+  // One object at `path`, placed by its "transform" when it has one; in_asset: in an
+  // asset's list, which takes no planes and no instances.
+  Object<T> read_object(const Json& o, const std::string& path, SceneFile<T>& out, bool in_asset) {
+    require_object(o, path);
+    std::string type = choice(require(o, path, "type"), key_path(path, "type"),
+                              {"sphere", "plane", "triangle", "mesh", "instance"});
+    if (in_asset && (type == "plane" || type == "instance"))
+      fail(key_path(path, "type"),
+           type == "plane" ? "an asset holds spheres, triangles and meshes, not planes (a plane is "
+                             "unbounded: an instance of it could not be placed)"
+                           : "an asset holds no instances (instances are one level deep)");
+    if (type == "sphere") {
+      check_keys(o, path, {"type", "center", "radius", "material", "transform", "mask"});
+      Sphere<T> s;
+      s.center = vector3(require(o, path, "center"), key_path(path, "center"));
+      s.radius = scalar(require(o, path, "radius"), key_path(path, "radius"), 0.0, INFINITY, true);
+      s.material = material_ref(o, path, out);
+      s.mask = read_mask(o, path);
+      return placed_object(o, path, Object<T>(s));
+    }
+    if (type == "plane") {
+      check_keys(o, path, {"type", "point", "normal", "material", "transform", "mask"});
+      Plane<T> p;
+      p.point = vector3(require(o, path, "point"), key_path(path, "point"));
+      p.normal = vector3(require(o, path, "normal"), key_path(path, "normal"));
+      T len = glm::length(p.normal);
+      if (!(len > T(0)) || !std::isfinite(len))
+        fail(key_path(path, "normal"),
+             "must be a non-zero vector of finite length, got " + show(o["normal"]));
+      p.material = material_ref(o, path, out);
+      p.mask = read_mask(o, path);
+      return placed_object(o, path, Object<T>(p));
+    }
+    if (type == "triangle") {
+      check_keys(o, path, {"type", "vertices", "material", "transform", "mask"});
+      std::string vpath = key_path(path, "vertices");
+      const Json& v = require(o, path, "vertices");
+      if (!v.is_array() || v.size() != 3)
+        fail(vpath, "must be an array of 3 points, got " + kind_of(v));
+      count_triangles(1, path);
+      Triangle<T> t;
+      for (size_t k = 0; k < 3; ++k) t.vertices[k] = vector3(v[k], index_path(vpath, k));
+      t.material = material_ref(o, path, out);
+      t.mask = read_mask(o, path);
+      return placed_object(o, path, Object<T>(t));
+    }
+    if (type == "instance") return Object<T>(read_instance(o, path, out));
+    return placed_object(o, path, Object<T>(read_mesh(o, path, out)));
+  }
+
+  // {"type": "instance", "asset": name, "transform": ..., "material": ..., "mask": ...}.
+  Instance<T> read_instance(const Json& o, const std::string& path, SceneFile<T>& out) {
+    check_keys(o, path, {"type", "asset", "transform", "material", "mask"});
+    std::string apath = key_path(path, "asset");
+    const Json& a = require(o, path, "asset");
+    if (!a.is_string()) fail(apath, "must be the name of an asset, got " + kind_of(a));
+    std::string name = a.get<std::string>();
+    auto it = asset_names_.find(name);
+    if (it == asset_names_.end()) {
+      std::vector<std::string> defined;
+      for (const auto& n : asset_names_) defined.push_back(n.first);
+      fail(apath,
+           "no asset named \"" + name + "\"" + suggestion(name, defined) +
+               (defined.empty() ? "; `assets` defines none" : "; defined: " + join(defined)));
+    }
+    Instance<T> instance;
+    instance.asset = it->second;
+    if (optional(o, "material")) instance.material = material_ref(o, path, out);
+    instance.mask = read_mask(o, path);
+    if (const Json* t = optional(o, "transform"))
+      instance.to_world = read_transform(*t, key_path(path, "transform")).m;
+    return instance;
+  }
+
+  // The object, placed by its "transform" when it has one (scene/transform.hpp).
+  Object<T> placed_object(const Json& o, const std::string& path, Object<T> object) {
     if (const Json* t = optional(o, "transform")) {
       std::string tpath = key_path(path, "transform");
       Transform transform = read_transform(*t, tpath);
@@ -426,7 +482,7 @@ class SceneReader : public JsonReader<T> {
         fail(tpath, e.what());
       }
     }
-    out.scene.add(object);
+    return object;
   }
 
   // {"translate": [x, y, z], "rotate": {"axis": [x, y, z], "degrees": a}, "scale": s or
@@ -636,6 +692,7 @@ class SceneReader : public JsonReader<T> {
   std::string base_dir_;
   const SceneLimits& limits_;
   std::map<std::string, int> names_;
+  std::map<std::string, int> asset_names_;
   long long total_triangles_ = 0;
 };
 

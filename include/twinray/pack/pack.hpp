@@ -13,9 +13,11 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <utility>
 #include <vector>
 #include <glm/geometric.hpp>
+#include <glm/matrix.hpp>
 
 #include <twinray/core/large_array.hpp>
 #include <twinray/core/options.hpp>
@@ -46,6 +48,7 @@ struct PackOptions {
 template <class T>
 struct SceneSummary {
   int n_spheres = 0, n_triangles = 0, n_planes = 0, n_bvh_nodes = 0;
+  int n_instances = 0, scene_root = -1, instance_root = -1;
   glm::vec<3, T> background{T(0), T(0), T(0)};
   Environment<T> environment;
   unsigned features = 0;  // the geometry bits of PackedScene::features
@@ -73,6 +76,15 @@ struct PackedScene {
   // not all ones (TR_F_MASKS), else empty.
   LargeVector<int> triangle_faces;
   LargeVector<unsigned> object_masks;
+  // Instances (TR_F_INSTANCES), in the top-level BVH's leaf order; the BVH's nodes
+  // hold the scene's own tree (root scene_root: node 0, or -1 without one), each placed
+  // asset's, and the top level's (root instance_root; -1 without instances).
+  LargeVector<typename Code::Instance> instances;
+  int scene_root = -1, instance_root = -1;
+  // Each asset's BVH root node and box (-1 and empty for an asset nothing places): what
+  // update_instances() rebuilds the top level from.
+  std::vector<int> asset_roots;
+  std::vector<bvh::Box> asset_boxes;
   glm::vec<3, T> background{T(0), T(0), T(0)};
   Environment<T> environment;  // its texture is one of `textures`
   // Bits of the geometry: TR_F_SPHERES, TR_F_TRIANGLES, TR_F_PLANES, TR_F_BVH2/4/8,
@@ -87,6 +99,9 @@ struct PackedScene {
     s.n_triangles = static_cast<int>(triangles.size());
     s.n_planes = static_cast<int>(planes.size());
     s.n_bvh_nodes = bvh_node_count();
+    s.n_instances = static_cast<int>(instances.size());
+    s.scene_root = scene_root;
+    s.instance_root = instance_root;
     s.background = background;
     s.environment = environment;
     s.features = features;
@@ -106,7 +121,8 @@ struct PackedScene {
            bvh_nodes.bytes() + bvh_prims.size() * sizeof(int) +
            triangle_attrs.size() * sizeof(typename Code::TriangleAttr) +
            textures.size() * sizeof(typename Code::Texture) + texels.size() * sizeof(T) +
-           triangle_faces.size() * sizeof(int) + object_masks.size() * sizeof(unsigned);
+           triangle_faces.size() * sizeof(int) + object_masks.size() * sizeof(unsigned) +
+           instances.size() * sizeof(typename Code::Instance);
   }
 };
 
@@ -166,6 +182,7 @@ typename device::Code<T>::SceneRef scene_ref(const PackedScene<T>& scene,
   s.texels = scene.texels.data();
   s.object_masks = scene.object_masks.data();
   s.triangle_faces = scene.triangle_faces.data();
+  s.instances = scene.instances.data();
   return s;
 }
 
@@ -183,6 +200,9 @@ typename device::Code<T>::Params query_params(const SceneSummary<T>& ps) {
   p.n_triangles = ps.n_triangles;
   p.n_planes = ps.n_planes;
   p.n_bvh_nodes = ps.n_bvh_nodes;
+  p.n_instances = ps.n_instances;
+  p.scene_root = ps.scene_root;
+  p.instance_root = ps.instance_root;
   p.features = static_cast<int>(ps.features);
   return p;
 }
@@ -211,58 +231,38 @@ void pack_attributes(const Mesh<T>& m, size_t f, Attr& a) {
 
 }  // namespace detail
 
-// Packs the geometry and materials of `scene` (checked first: validate(scene)), with a
-// BVH over its spheres and triangles as `options` say. Lights are per frame
-// (pack_frame). Throws InvalidInput for a BVH width other than 2, 4 or 8.
+namespace detail {
+
+// How many primitives of each kind a run of objects packs into (instances: none).
+struct ObjectCounts {
+  size_t spheres = 0, triangles = 0, planes = 0;
+  bool attributes = false;
+};
 template <class T>
-PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
-  if (!bvh::valid_width(options.bvh_width))
-    throw invalid_input("bvh_width: " + std::to_string(options.bvh_width) + " is not 2, 4 or 8");
-  const BvhPolicy bvh = options.bvh;
-  // The build frees arrays just before it asks for others as large: their pages are
-  // reused instead of faulted in afresh (core/large_array.hpp, "Recycling").
-  LargeArrayRecycling recycling;
-  // Objects in chunks on every thread: first each chunk's counts (a scan gives every
-  // chunk its place in each array), then the copies. The arrays list primitives in
-  // object order (with a BVH, in the order of its leaves: below), whatever the thread
-  // count. Each chunk is counted as it is validated, while its objects are in the
-  // caches: for spheres_1e6's 184 MB of objects one pass takes about three quarters of
-  // the time of two (bench/twinray_bench.cpp).
-  constexpr size_t kChunk = kValidateChunk;
-  const size_t n_objects = scene.objects.size();
-  const size_t n_chunks = block_count(n_objects, kChunk);
-  struct Counts {
-    size_t spheres = 0, triangles = 0, planes = 0;
-    bool attributes = false;
-  };
-  std::vector<Counts> start(n_chunks + 1);
-  validate_geometry(scene, [&](size_t chunk, size_t begin, size_t end) {
-    Counts& n = start[chunk + 1];
-    for (size_t i = begin; i < end; ++i) {
-      const Object<T>& o = scene.objects[i];
-      if (std::holds_alternative<Sphere<T>>(o)) ++n.spheres;
-      if (std::holds_alternative<Triangle<T>>(o)) ++n.triangles;
-      if (std::holds_alternative<Plane<T>>(o)) ++n.planes;
-      if (auto* m = std::get_if<Mesh<T>>(&o)) {
-        n.triangles += m->triangles.size();
-        n.attributes = n.attributes || !m->normal_triangles.empty() || !m->uv_triangles.empty();
-      }
+void count_objects(const std::vector<Object<T>>& objects, size_t begin, size_t end,
+                   ObjectCounts& n) {
+  for (size_t i = begin; i < end; ++i) {
+    const Object<T>& o = objects[i];
+    if (std::holds_alternative<Sphere<T>>(o)) ++n.spheres;
+    if (std::holds_alternative<Triangle<T>>(o)) ++n.triangles;
+    if (std::holds_alternative<Plane<T>>(o)) ++n.planes;
+    if (auto* m = std::get_if<Mesh<T>>(&o)) {
+      n.triangles += m->triangles.size();
+      n.attributes = n.attributes || !m->normal_triangles.empty() || !m->uv_triangles.empty();
     }
-  });
-  PackedScene<T> ps;
-  ps.background = scene.background;
-  ps.environment = scene.environment;
-  for (const Material<T>& m : scene.materials) {
-    ps.materials.push_back({m.color.x, m.color.y, m.color.z, m.ka, m.kd, m.ks, m.shininess, m.glaze,
-                            m.transmission, m.ior, m.absorption.x, m.absorption.y, m.absorption.z,
-                            m.texture, 0});
-    if (m.glaze > T(0)) ps.any_glazed = true;
-    if (m.transmission > T(0)) ps.any_transmissive = true;
   }
-  for (const Texture<T>& t : scene.textures) {
-    ps.textures.push_back({t.width, t.height, static_cast<int>(ps.texels.size()), 0});
-    ps.texels.insert(ps.texels.end(), t.texels.begin(), t.texels.end());
-  }
+}
+
+// The primitives of `objects` (already checked) packed into ps's spheres, triangles
+// (with their faces and attributes), planes and, as `bvh` says, BVH. start[c + 1]
+// holds the counts of chunk c of kValidateChunk objects (start[0] zeros); each
+// primitive's `object` is its object's index in `objects`. Instances are skipped.
+template <class T>
+void pack_objects(const std::vector<Object<T>>& objects, std::vector<ObjectCounts> start,
+                  BvhPolicy bvh, int bvh_width, PackedScene<T>& ps) {
+  constexpr size_t kChunk = kValidateChunk;
+  const size_t n_objects = objects.size();
+  const size_t n_chunks = block_count(n_objects, kChunk);
   bool with_attrs = false;
   for (size_t c = 1; c <= n_chunks; ++c) {
     with_attrs = with_attrs || start[c].attributes;
@@ -278,10 +278,10 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
   auto for_each_primitive = [&](const auto& put_sphere, const auto& put_triangle,
                                 const auto& put_plane) {
     parallel_for_blocks(n_objects, kChunk, [&](size_t chunk, size_t begin, size_t end) {
-      Counts at = start[chunk];
+      ObjectCounts at = start[chunk];
       for (size_t i = begin; i < end; ++i) {
         const int object = static_cast<int>(i);
-        const Object<T>& o = scene.objects[i];
+        const Object<T>& o = objects[i];
         auto triangle = [object](const glm::vec<3, T>& a, const glm::vec<3, T>& b,
                                  const glm::vec<3, T>& c, int material) {
           return typename device::Code<T>::Triangle{a.x, a.y, a.z, b.x,      b.y,   b.z,
@@ -360,7 +360,7 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
           refs[id] = {bvh::primitive_box<T>(t), static_cast<int>(id)};
         },
         store_plane);
-    bvh::Bvh<T> tree = bvh::build<T>(std::move(refs), n_sph, options.bvh_width);
+    bvh::Bvh<T> tree = bvh::build<T>(std::move(refs), n_sph, bvh_width);
     // Where each leaf-order primitive goes (a scan), and each primitive id's slot.
     ps.bvh_prims.resize(tree.order.size());
     int sphere_at = 0, triangle_at = 0;
@@ -384,6 +384,236 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
         [](size_t, const auto&) {});  // planes: packed above
     ps.bvh_nodes = std::move(tree.nodes);
   }
+}
+
+// The counts of `objects`, chunk by chunk (pack_objects' `start`), on this thread.
+template <class T>
+std::vector<ObjectCounts> object_counts(const std::vector<Object<T>>& objects) {
+  const size_t n_chunks = block_count(objects.size(), kValidateChunk);
+  std::vector<ObjectCounts> start(n_chunks + 1);
+  for (size_t c = 0; c < n_chunks; ++c)
+    count_objects(objects, c * kValidateChunk, std::min(objects.size(), (c + 1) * kValidateChunk),
+                  start[c + 1]);
+  return start;
+}
+
+// Appends `from` (one asset, packed by pack_objects with a BVH) to `to`'s spheres,
+// triangles and BVH: its primitive ids, leaf positions and node links are moved past
+// `to`'s. Returns the node index of its root. Where `to` holds no bounded primitives
+// yet, the arrays are moved, not copied.
+template <class T>
+int append_asset(PackedScene<T>& to, PackedScene<T>&& from) {
+  const size_t to_sph = to.spheres.size(), to_tri = to.triangles.size();
+  const size_t from_sph = from.spheres.size(), from_tri = from.triangles.size();
+  if (to_sph + to_tri == 0 && to.bvh_nodes.empty()) {
+    to.spheres = std::move(from.spheres);
+    to.triangles = std::move(from.triangles);
+    to.triangle_faces = std::move(from.triangle_faces);
+    to.triangle_attrs = std::move(from.triangle_attrs);
+    to.bvh_prims = std::move(from.bvh_prims);
+    to.bvh_nodes = std::move(from.bvh_nodes);
+    return 0;
+  }
+  const int total_sph = static_cast<int>(to_sph + from_sph);
+  // Primitive ids: spheres first, then triangles, over both.
+  for (size_t i = 0; i < to.bvh_prims.size(); ++i)
+    if (to.bvh_prims[i] >= static_cast<int>(to_sph)) to.bvh_prims[i] += static_cast<int>(from_sph);
+  const int leaf_base = static_cast<int>(to.bvh_prims.size());
+  for (size_t i = 0; i < from.bvh_prims.size(); ++i) {
+    const int id = from.bvh_prims[i];
+    to.bvh_prims.push_back(id < static_cast<int>(from_sph) ? static_cast<int>(to_sph) + id
+                                                           : total_sph + static_cast<int>(to_tri) +
+                                                                 (id - static_cast<int>(from_sph)));
+  }
+  to.spheres.insert(to.spheres.end(), from.spheres.begin(), from.spheres.end());
+  to.triangles.insert(to.triangles.end(), from.triangles.begin(), from.triangles.end());
+  to.triangle_faces.insert(to.triangle_faces.end(), from.triangle_faces.begin(),
+                           from.triangle_faces.end());
+  if (!to.triangle_attrs.empty() || !from.triangle_attrs.empty()) {
+    to.triangle_attrs.resize(to_tri);  // flags 0 where a side had none
+    if (from.triangle_attrs.empty())
+      to.triangle_attrs.resize(to_tri + from_tri);
+    else
+      to.triangle_attrs.insert(to.triangle_attrs.end(), from.triangle_attrs.begin(),
+                               from.triangle_attrs.end());
+  }
+  const int node_base = to.bvh_nodes.size();
+  const int width = from.bvh_nodes.width();
+  if (to.bvh_nodes.empty()) to.bvh_nodes = bvh::WideNodes<T>(width);
+  to.bvh_nodes.resize(static_cast<size_t>(node_base + from.bvh_nodes.size()));
+  if (!from.bvh_nodes.empty())
+    std::memcpy(to.bvh_nodes.boxes(node_base), from.bvh_nodes.boxes(0), from.bvh_nodes.bytes());
+  for (int i = node_base; i < to.bvh_nodes.size(); ++i) {
+    int* links = to.bvh_nodes.links(i);
+    for (int k = 0; k < width; ++k) {
+      if (links[width + k] == 0) links[k] += node_base;
+      if (links[width + k] > 0) links[k] += leaf_base;
+    }
+  }
+  return node_base;
+}
+
+// The box of the tree whose root is node `root`: its children's boxes together.
+template <class T>
+bvh::Box tree_box(const bvh::WideNodes<T>& nodes, int root) {
+  bvh::Box box;
+  const int w = nodes.width();
+  const T* b = nodes.boxes(root);
+  for (int k = 0; k < w; ++k) {
+    if (nodes.links(root)[w + k] < 0) continue;
+    for (int a = 0; a < 3; ++a) {
+      box.lo[a] = std::min(box.lo[a], double(b[(TR_BVH_MIN_X + a) * w + k]));
+      box.hi[a] = std::max(box.hi[a], double(b[(TR_BVH_MAX_X + a) * w + k]));
+    }
+  }
+  return box;
+}
+
+// An asset's box placed in the world: its 8 corners mapped in double, and then grown on
+// every side by 2^-16 of the coordinates' size. The walk tests this box with the
+// world's ray but the asset's primitives with the ray mapped by the rounded inverse
+// (device/instance.h), whose rounding moves a hit by a few units in the last place of
+// the coordinates: the margin keeps such a hit inside the box.
+inline bvh::Box placed_box(const bvh::Box& box, const glm::dmat4& m) {
+  bvh::Box out;
+  for (int c = 0; c < 8; ++c) {
+    glm::dvec4 p(c & 1 ? box.hi[0] : box.lo[0], c & 2 ? box.hi[1] : box.lo[1],
+                 c & 4 ? box.hi[2] : box.lo[2], 1.0);
+    glm::dvec4 q = m * p;
+    double xyz[3] = {q.x, q.y, q.z};
+    out.grow(xyz);
+  }
+  for (int a = 0; a < 3; ++a) {
+    double margin = (std::fabs(out.lo[a]) + std::fabs(out.hi[a]) + (out.hi[a] - out.lo[a])) *
+                    std::ldexp(1.0, -16);
+    out.lo[a] -= margin;
+    out.hi[a] += margin;
+  }
+  return out;
+}
+
+// Each asset that an instance of `scene` places, packed once and appended to ps with its
+// BVH: ps.asset_roots and ps.asset_boxes (-1 and an empty box for an asset nothing
+// places).
+template <class T>
+void pack_assets(const Scene<T>& scene, int bvh_width, PackedScene<T>& ps) {
+  ps.asset_roots.assign(scene.assets.size(), -1);
+  ps.asset_boxes.assign(scene.assets.size(), bvh::Box{});
+  std::vector<char> used(scene.assets.size(), 0);
+  for (const Object<T>& o : scene.objects)
+    if (auto* in = std::get_if<Instance<T>>(&o)) used[static_cast<size_t>(in->asset)] = 1;
+  for (size_t a = 0; a < scene.assets.size(); ++a) {
+    if (!used[a]) continue;
+    const std::vector<Object<T>>& objects = scene.assets[a].objects;
+    PackedScene<T> piece;
+    pack_objects(objects, object_counts(objects), BvhPolicy::Always, bvh_width, piece);
+    if (piece.bvh_nodes.empty())
+      throw invalid_input((scene.assets[a].name.empty() ? "assets[" + std::to_string(a) + "]"
+                                                        : "assets." + scene.assets[a].name) +
+                          ": holds no sphere and no triangle, so an instance has nothing to place");
+    ps.asset_boxes[a] = tree_box(piece.bvh_nodes, 0);
+    ps.asset_roots[a] = append_asset(ps, std::move(piece));
+  }
+}
+
+// The top-level BVH over the instances' world boxes, appended to ps's nodes (its root:
+// ps.instance_root), and ps.instances in its leaf order. The assets are ps's already
+// (pack_assets).
+template <class T>
+void pack_top_level(const Scene<T>& scene, int bvh_width, PackedScene<T>& ps) {
+  std::vector<int> object_of;  // the instances' object indices, in object order
+  LargeVector<bvh::PrimRef<T>> refs;
+  for (size_t i = 0; i < scene.objects.size(); ++i) {
+    auto* in = std::get_if<Instance<T>>(&scene.objects[i]);
+    if (!in) continue;
+    const int id = static_cast<int>(object_of.size());
+    object_of.push_back(static_cast<int>(i));
+    const bvh::Box& box = ps.asset_boxes[static_cast<size_t>(in->asset)];
+    refs.push_back({bvh::rounded_box<T>(placed_box(box, in->to_world)), id});
+  }
+  bvh::Bvh<T> top = bvh::build<T>(std::move(refs), 0, bvh_width);
+  ps.instances.resize(top.order.size());
+  for (size_t k = 0; k < top.order.size(); ++k) {
+    const int object = object_of[static_cast<size_t>(top.order[k])];
+    const Instance<T>& in = std::get<Instance<T>>(scene.objects[static_cast<size_t>(object)]);
+    typename device::Code<T>::Instance& d = ps.instances[k];
+    const glm::dmat4 to_object = glm::inverse(in.to_world);
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 4; ++c) {
+        d.to_object[4 * r + c] = static_cast<T>(to_object[c][r]);
+        d.to_world[4 * r + c] = static_cast<T>(in.to_world[c][r]);
+      }
+    d.root = ps.asset_roots[static_cast<size_t>(in.asset)];
+    d.object = object;
+    d.material = in.material;
+    d.mask = in.mask;
+  }
+  // The top level's nodes after the assets': inner links move with them, leaf links
+  // index ps.instances.
+  const int node_base = ps.bvh_nodes.size();
+  const int w = top.nodes.width();
+  if (ps.bvh_nodes.empty()) ps.bvh_nodes = bvh::WideNodes<T>(w);
+  ps.bvh_nodes.resize(static_cast<size_t>(node_base + top.nodes.size()));
+  std::memcpy(ps.bvh_nodes.boxes(node_base), top.nodes.boxes(0), top.nodes.bytes());
+  for (int i = node_base; i < ps.bvh_nodes.size(); ++i) {
+    int* links = ps.bvh_nodes.links(i);
+    for (int k = 0; k < w; ++k)
+      if (links[w + k] == 0) links[k] += node_base;
+  }
+  ps.instance_root = node_base;
+}
+
+}  // namespace detail
+
+// Packs the geometry and materials of `scene` (checked first: validate(scene)), with a
+// BVH over its spheres and triangles as `options` say. A scene with instances always
+// gets a BVH: each placed asset's, then the top level's over its instances. Lights are
+// per frame (pack_frame). Throws InvalidInput for a BVH width other than 2, 4 or 8.
+template <class T>
+PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
+  if (!bvh::valid_width(options.bvh_width))
+    throw invalid_input("bvh_width: " + std::to_string(options.bvh_width) + " is not 2, 4 or 8");
+  // The build frees arrays just before it asks for others as large: their pages are
+  // reused instead of faulted in afresh (core/large_array.hpp, "Recycling").
+  LargeArrayRecycling recycling;
+  // Objects in chunks on every thread: first each chunk's counts (a scan gives every
+  // chunk its place in each array), then the copies. The arrays list primitives in
+  // object order (with a BVH, in the order of its leaves: below), whatever the thread
+  // count. Each chunk is counted as it is validated, while its objects are in the
+  // caches: for spheres_1e6's 184 MB of objects one pass takes about three quarters of
+  // the time of two (bench/twinray_bench.cpp).
+  const size_t n_objects = scene.objects.size();
+  const size_t n_chunks = block_count(n_objects, kValidateChunk);
+  std::vector<detail::ObjectCounts> start(n_chunks + 1);
+  std::atomic<bool> any_instance{false};
+  validate_geometry(scene, [&](size_t chunk, size_t begin, size_t end) {
+    detail::count_objects(scene.objects, begin, end, start[chunk + 1]);
+    for (size_t i = begin; i < end; ++i)
+      if (std::holds_alternative<Instance<T>>(scene.objects[i])) any_instance = true;
+  });
+  const bool instances = any_instance.load();
+  PackedScene<T> ps;
+  ps.background = scene.background;
+  ps.environment = scene.environment;
+  for (const Material<T>& m : scene.materials) {
+    ps.materials.push_back({m.color.x, m.color.y, m.color.z, m.ka, m.kd, m.ks, m.shininess, m.glaze,
+                            m.transmission, m.ior, m.absorption.x, m.absorption.y, m.absorption.z,
+                            m.texture, 0});
+    if (m.glaze > T(0)) ps.any_glazed = true;
+    if (m.transmission > T(0)) ps.any_transmissive = true;
+  }
+  for (const Texture<T>& t : scene.textures) {
+    ps.textures.push_back({t.width, t.height, static_cast<int>(ps.texels.size()), 0});
+    ps.texels.insert(ps.texels.end(), t.texels.begin(), t.texels.end());
+  }
+  detail::pack_objects(scene.objects, std::move(start), instances ? BvhPolicy::Always : options.bvh,
+                       options.bvh_width, ps);
+  ps.scene_root = ps.bvh_nodes.empty() ? -1 : 0;
+  if (instances) {
+    detail::pack_assets(scene, options.bvh_width, ps);
+    detail::pack_top_level(scene, options.bvh_width, ps);
+    ps.features |= TR_F_INSTANCES;
+  }
   if (!ps.spheres.empty()) ps.features |= TR_F_SPHERES;
   if (!ps.triangles.empty()) ps.features |= TR_F_TRIANGLES;
   if (!ps.planes.empty()) ps.features |= TR_F_PLANES;
@@ -401,6 +631,26 @@ PackedScene<T> pack_scene(const Scene<T>& scene, PackOptions options = {}) {
   for (const Material<T>& m : scene.materials)
     if (m.texture >= 0) ps.features |= TR_F_TEXTURES;
   return ps;
+}
+
+// The instances of a scene packed by pack_scene moved (their maps, materials or masks
+// changed; the same assets, the same objects otherwise): only the top-level BVH and the
+// instance array are built again, in place; the assets stay packed. Checks the
+// instances first; returns false (and changes nothing) where `ps` holds no instances
+// or `scene` has other assets than it was packed with, where pack_scene is the way.
+template <class T>
+bool update_instances(PackedScene<T>& ps, const Scene<T>& scene) {
+  if (!(ps.features & TR_F_INSTANCES) || ps.asset_roots.size() != scene.assets.size()) return false;
+  for (size_t i = 0; i < scene.objects.size(); ++i) {
+    auto* in = std::get_if<Instance<T>>(&scene.objects[i]);
+    if (!in) continue;
+    validate_object(scene, i);
+    if (ps.asset_roots[static_cast<size_t>(in->asset)] < 0) return false;  // not packed
+  }
+  const int width = ps.bvh_width();
+  ps.bvh_nodes.resize(static_cast<size_t>(ps.instance_root));  // the assets' nodes stay
+  detail::pack_top_level(scene, width, ps);
+  return true;
 }
 
 template <class T>
@@ -508,6 +758,9 @@ PackedFrame<T> pack_frame(const SceneSummary<T>& ps, const RenderRequest<T>& req
   p.n_planes = ps.n_planes;
   p.n_lights = static_cast<int>(frame.lights.size());
   p.n_bvh_nodes = ps.n_bvh_nodes;
+  p.n_instances = ps.n_instances;
+  p.scene_root = ps.scene_root;
+  p.instance_root = ps.instance_root;
   frame.features = features_of(ps, request.lights, options);
   p.features = static_cast<int>(frame.features);
   if (p.adaptive_spp > 0) {

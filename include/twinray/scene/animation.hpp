@@ -188,6 +188,8 @@ void for_each_point(const Scene<T>& scene, const Target& t, F&& f) {
           f(o.center);
         } else if constexpr (std::is_same<O, Plane<T>>::value) {
           f(o.point);
+        } else if constexpr (std::is_same<O, Instance<T>>::value) {
+          f(glm::vec<3, T>(o.to_world[3]));  // where the asset's origin is placed
         } else {
           for (const auto& v : o.vertices) f(v);
         }
@@ -208,6 +210,8 @@ void translate(Scene<T>& scene, const Target& t, const glm::vec<3, T>& d) {
           o.center += d;
         } else if constexpr (std::is_same<O, Plane<T>>::value) {
           o.point += d;
+        } else if constexpr (std::is_same<O, Instance<T>>::value) {
+          o.to_world[3] += glm::dvec4(glm::dvec3(d), 0.0);
         } else {
           for (auto& v : o.vertices) v += d;
         }
@@ -265,6 +269,19 @@ bool moves_objects(const Animation<T>& animation) {
     for (const Target& t : path.targets)
       if (t.kind == Target::Object) return true;
   return false;
+}
+
+// Whether every object the animation moves is an instance (scene/instance.hpp), so that
+// a frame needs only its top-level BVH built again (pack/pack.hpp, update_instances).
+template <class T>
+bool moves_only_instances(const Animation<T>& animation, const Scene<T>& scene) {
+  for (const Path<T>& path : animation.paths)
+    for (const Target& t : path.targets)
+      if (t.kind == Target::Object &&
+          (t.index < 0 || static_cast<size_t>(t.index) >= scene.objects.size() ||
+           !std::holds_alternative<Instance<T>>(scene.objects[static_cast<size_t>(t.index)])))
+        return false;
+  return true;
 }
 
 // The scene and camera of frame `frame` (any integer; an animation is defined beyond

@@ -167,6 +167,12 @@ void place(Plane<T>& plane, const Transform& t) {
   plane.normal = glm::vec<3, T>(glm::normalize(n));
 }
 
+// An instance is placed by composing maps: t after its own.
+template <class T>
+void place(Instance<T>& instance, const Transform& t) {
+  instance.to_world = t.m * instance.to_world;
+}
+
 template <class T>
 void place(Object<T>& object, const Transform& t) {
   std::visit([&](auto& o) { place(o, t); }, object);

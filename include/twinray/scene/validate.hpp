@@ -15,6 +15,7 @@
 #include <type_traits>
 #include <utility>
 #include <glm/geometric.hpp>
+#include <glm/matrix.hpp>
 
 #include <twinray/core/error.hpp>
 #include <twinray/core/options.hpp>
@@ -202,14 +203,29 @@ void validate(const Camera<T>& camera) {
 
 namespace detail {
 
-// An object that will be objects[i] of a scene with `materials` materials: finite
-// geometry, radius > 0, non-zero plane normal, indices in range. Messages name
-// objects[i]. Programs that build a scene piece by piece (the Python module) check each
-// object as it is added.
-template <class T>
-void validate_object(const Object<T>& object, size_t i, size_t materials) {
-  // Paths are made only for a value that is refused (detail::path_text).
-  auto base = [i] { return at("objects", i); };
+// An instance's map: finite, affine (last row 0 0 0 1) and invertible, with a finite
+// inverse (device/instance.h maps rays by it).
+template <class Base>
+void validate_instance_map(const Base& base, const glm::dmat4& m) {
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r)
+      if (!std::isfinite(m[c][r]))
+        refuse(base() + ".transform", "has a value that is not finite (row " + std::to_string(r) +
+                                          ", column " + std::to_string(c) + ")");
+  if (m[0][3] != 0.0 || m[1][3] != 0.0 || m[2][3] != 0.0 || m[3][3] != 1.0)
+    refuse(base() + ".transform", "is not affine: its last row must be 0 0 0 1");
+  glm::dmat4 inv = glm::inverse(m);
+  bool finite = std::isfinite(glm::determinant(m)) && glm::determinant(m) != 0.0;
+  for (int c = 0; c < 4 && finite; ++c)
+    for (int r = 0; r < 4; ++r) finite = finite && std::isfinite(inv[c][r]);
+  if (!finite) refuse(base() + ".transform", "is singular: it has no inverse to map rays by");
+}
+
+// The object at path base() of a scene with `materials` materials and `assets` assets;
+// in_asset: an object of an asset, which may be no plane and no instance.
+template <class T, class Base>
+void validate_object_at(const Object<T>& object, const Base& base, size_t materials, size_t assets,
+                        bool in_asset) {
   auto field = [&base](const char* name) { return [&base, name] { return base() + name; }; };
   auto check_material = [&](int material) {
     if (material < 0 || static_cast<size_t>(material) >= materials)
@@ -245,13 +261,51 @@ void validate_object(const Object<T>& object, size_t i, size_t materials) {
       }
     check_material(m->material);
     detail::validate_mesh_attributes(base(), *m, materials);
+  } else if (auto* in = std::get_if<Instance<T>>(&object)) {
+    if (in_asset)
+      refuse(base(), "is an instance; an asset holds no instances (instances are one level deep)");
+    if (in->asset < 0 || static_cast<size_t>(in->asset) >= assets)
+      refuse(base() + ".asset", "no asset with index " + std::to_string(in->asset) + " (" +
+                                    std::to_string(assets) + " defined)");
+    if (in->material != -1) check_material(in->material);
+    validate_instance_map(base, in->to_world);
   }
+  if (in_asset && std::holds_alternative<Plane<T>>(object))
+    refuse(base(),
+           "is a plane; an asset holds spheres, triangles and meshes (a plane is "
+           "unbounded, so an instance could not be placed in the BVH)");
+}
+
+// An object that will be objects[i] of a scene with `materials` materials and `assets`
+// assets: finite geometry, radius > 0, non-zero plane normal, indices in range, an
+// instance's asset in range and its map invertible. Messages name objects[i]. Programs
+// that build a scene piece by piece (the Python module) check each object as it is added.
+template <class T>
+void validate_object(const Object<T>& object, size_t i, size_t materials, size_t assets = 0) {
+  // Paths are made only for a value that is refused (detail::path_text).
+  validate_object_at(
+      object, [i] { return at("objects", i); }, materials, assets, false);
 }
 
 // Object i of the scene (validate_geometry).
 template <class T>
 void validate_object(const Scene<T>& scene, size_t i) {
-  validate_object(scene.objects[i], i, scene.materials.size());
+  validate_object(scene.objects[i], i, scene.materials.size(), scene.assets.size());
+}
+
+// The assets' objects: as the scene's, less planes and instances. Paths name
+// assets.NAME[i] (or assets[k] for an asset without a name).
+template <class T>
+void validate_assets(const Scene<T>& scene) {
+  for (size_t k = 0; k < scene.assets.size(); ++k) {
+    const Asset<T>& a = scene.assets[k];
+    std::string name = a.name.empty() ? at("assets", k) : "assets." + a.name;
+    if (a.objects.empty()) refuse(name, "holds no objects");
+    for (size_t i = 0; i < a.objects.size(); ++i)
+      validate_object_at(
+          a.objects[i], [&] { return at(name, i); }, scene.materials.size(), scene.assets.size(),
+          true);
+  }
 }
 
 // materials[i], in a scene of `textures` textures: color channels in [0, 1]; ka, kd, ks
@@ -334,6 +388,7 @@ void validate_geometry(const Scene<T>& scene, const AfterChunk& after_chunk) {
                  "); a material's texture holds colors in [0, 1]");
   }
   validate_environment(scene);
+  detail::validate_assets(scene);
   long long texels = 0;
   for (size_t i = 0; i < scene.textures.size(); ++i)
     texels += detail::validate_texture(at("textures", i), scene.textures[i]);

@@ -85,8 +85,8 @@ class Buffer {
 // The buffers every kernel in kernels/render.cl takes as its first arguments, in this
 // order: params, spheres, triangles, planes, materials, lights, bvh_nodes, bvh_prims,
 // triangle_attrs, textures, texels, object_masks, triangle_faces (a placeholder until
-// a query needs it: SceneBuffers::upload_faces).
-constexpr cl_uint kSceneArgs = 13;
+// a query needs it: SceneBuffers::upload_faces), instances.
+constexpr cl_uint kSceneArgs = 14;
 
 class SceneBuffers {
  public:
@@ -109,6 +109,7 @@ class SceneBuffers {
     put(textures_, ps.textures);
     put(texels_, ps.texels);
     put(object_masks_, ps.object_masks);
+    put(instances_, ps.instances);
     triangle_faces_.release();  // a larger buffer of the last scene's would stay otherwise
     triangle_faces_.reserve(ctx.context(), CL_MEM_READ_ONLY, 0,
                             "clCreateBuffer (triangle faces placeholder)");
@@ -133,7 +134,7 @@ class SceneBuffers {
     size_t total = 0;
     for (const Buffer* b :
          {&spheres_, &triangles_, &planes_, &materials_, &bvh_nodes_, &bvh_prims_, &triangle_attrs_,
-          &textures_, &texels_, &object_masks_, &triangle_faces_})
+          &textures_, &texels_, &object_masks_, &triangle_faces_, &instances_})
       total += b->bytes();
     return total;
   }
@@ -155,10 +156,10 @@ class SceneBuffers {
   }
 
   std::array<cl_mem, kSceneArgs> args() const {
-    return {params_.mem(),         spheres_.mem(),  triangles_.mem(), planes_.mem(),
-            materials_.mem(),      lights_.mem(),   bvh_nodes_.mem(), bvh_prims_.mem(),
-            triangle_attrs_.mem(), textures_.mem(), texels_.mem(),    object_masks_.mem(),
-            triangle_faces_.mem()};
+    return {params_.mem(),         spheres_.mem(),       triangles_.mem(), planes_.mem(),
+            materials_.mem(),      lights_.mem(),        bvh_nodes_.mem(), bvh_prims_.mem(),
+            triangle_attrs_.mem(), textures_.mem(),      texels_.mem(),    object_masks_.mem(),
+            instances_.mem(),      triangle_faces_.mem()};
   }
   cl_mem params() const { return params_.mem(); }
 
@@ -173,7 +174,7 @@ class SceneBuffers {
   }
 
   Buffer params_, spheres_, triangles_, planes_, materials_, lights_, bvh_nodes_, bvh_prims_,
-      triangle_attrs_, textures_, texels_, object_masks_, triangle_faces_;
+      triangle_attrs_, textures_, texels_, object_masks_, triangle_faces_, instances_;
   bool has_faces_ = false;
 };
 

@@ -44,7 +44,8 @@ class Context {
 
   // sizeof of every buffer struct as this device's compiler lays it out (kernel
   // tr_kernel_layout_sizes): TrSphere, TrTriangle, TrPlane, TrMaterial, TrLight,
-  // real (bvh_nodes' boxes), TrParams, TrTriangleAttr, TrTexture. Must equal the host's
+  // real (bvh_nodes' boxes), TrParams, TrTriangleAttr, TrTexture, TrQueryRay, TrQueryHit,
+  // TrQueryExtras, TrInstance. Must equal the host's
   // (device/code.hpp).
   std::vector<int> device_struct_sizes(bool use_double) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -55,7 +56,7 @@ class Context {
     cl_int err = CL_SUCCESS;
     cl_kernel kernel = clCreateKernel(entry.program, "tr_kernel_layout_sizes", &err);
     check(err, "clCreateKernel");
-    std::vector<int> sizes(12, 0);
+    std::vector<int> sizes(13, 0);
     cl_mem out =
         clCreateBuffer(context_, CL_MEM_WRITE_ONLY, sizes.size() * sizeof(int), nullptr, &err);
     if (err != CL_SUCCESS) clReleaseKernel(kernel);
