@@ -128,11 +128,21 @@ NB_MODULE(_core, m) {
              mat.transmission = transmission, mat.ior = ior, mat.absorption = dvec(absorption);
              return s.add_material(mat);
            })
+      .def("add_asset", &NativeScene::add_asset)
+      .def("add_instance",
+           [](NativeScene& s, int asset, int material, uint32_t mask,
+              std::optional<std::array<double, 16>> transform) {
+             twinray::Instance<double> in;
+             in.asset = asset;
+             in.material = material;
+             in.mask = mask;
+             return s.add_object(in, transform_of(transform));
+           })
       .def("add_sphere",
            [](NativeScene& s, const Vec3& center, double radius, int material, uint32_t mask,
-              std::optional<std::array<double, 16>> transform) {
+              std::optional<std::array<double, 16>> transform, int asset) {
              return s.add_object(twinray::Sphere<double>{dvec(center), radius, material, mask},
-                                 transform_of(transform));
+                                 transform_of(transform), asset);
            })
       .def("add_plane",
            [](NativeScene& s, const Vec3& point, const Vec3& normal, int material, uint32_t mask,
@@ -142,18 +152,19 @@ NB_MODULE(_core, m) {
            })
       .def("add_triangle",
            [](NativeScene& s, const Vec3& a, const Vec3& b, const Vec3& c, int material,
-              uint32_t mask, std::optional<std::array<double, 16>> transform) {
+              uint32_t mask, std::optional<std::array<double, 16>> transform, int asset) {
              twinray::Triangle<double> t;
              t.vertices = {dvec(a), dvec(b), dvec(c)};
              t.material = material;
              t.mask = mask;
-             return s.add_object(t, transform_of(transform));
+             return s.add_object(t, transform_of(transform), asset);
            })
       .def("add_mesh",
            [](NativeScene& s,
               const nb::ndarray<const double, nb::shape<-1, 3>, nb::c_contig, nb::device::cpu>& v,
               const nb::ndarray<const int64_t, nb::shape<-1, 3>, nb::c_contig, nb::device::cpu>& t,
-              int material, uint32_t mask, std::optional<std::array<double, 16>> transform) {
+              int material, uint32_t mask, std::optional<std::array<double, 16>> transform,
+              int asset) {
              twinray::Mesh<double> mesh;
              mesh.vertices.resize(v.shape(0));
              for (size_t i = 0; i < v.shape(0); ++i)
@@ -181,14 +192,14 @@ NB_MODULE(_core, m) {
                }
              mesh.material = material;
              mesh.mask = mask;
-             return s.add_object(std::move(mesh), transform_of(transform));
+             return s.add_object(std::move(mesh), transform_of(transform), asset);
            })
       .def("add_obj",
            [](NativeScene& s, const std::string& path, int material, uint32_t mask,
-              std::optional<std::array<double, 16>> transform) {
+              std::optional<std::array<double, 16>> transform, int asset) {
              int index = -1;
              std::vector<std::string> warnings =
-                 s.add_obj(path, material, transform_of(transform), mask, &index);
+                 s.add_obj(path, material, transform_of(transform), mask, &index, asset);
              return std::make_pair(index, warnings);
            })
       .def_prop_rw(
@@ -200,6 +211,7 @@ NB_MODULE(_core, m) {
       .def_prop_ro("environment_file", &NativeScene::environment_file)
       .def_prop_ro("material_count", &NativeScene::material_count)
       .def_prop_ro("object_count", &NativeScene::object_count)
+      .def_prop_ro("asset_count", &NativeScene::asset_count)
       .def_prop_ro("version", &NativeScene::version)
       .def_prop_ro("file_camera",
                    [](const NativeScene& s) { return CameraSpec::from(s.file().camera); })

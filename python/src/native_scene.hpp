@@ -61,6 +61,14 @@ Object<T> rounded(const Object<double>& object) {
     out.mask = t->mask;
     return out;
   }
+  if (auto* in = std::get_if<twinray::Instance<double>>(&object)) {
+    twinray::Instance<T> out;
+    out.asset = in->asset;
+    out.to_world = in->to_world;  // a map stays in double (scene/instance.hpp)
+    out.material = in->material;
+    out.mask = in->mask;
+    return out;
+  }
   const auto& m = std::get<twinray::Mesh<double>>(object);
   twinray::Mesh<T> out;
   out.vertices.resize(m.vertices.size());
@@ -71,9 +79,11 @@ Object<T> rounded(const Object<double>& object) {
   return out;
 }
 
+// asset: the asset the object goes into (Scene::assets), -1 for the scene's objects.
 struct ObjectStep {
   Object<double> object;
   std::optional<Transform> transform;
+  int asset = -1;
 };
 
 struct ObjFileStep {
@@ -81,6 +91,11 @@ struct ObjFileStep {
   int material = -1;  // overrides the file's materials; -1: the file's own
   std::optional<Transform> transform;
   uint32_t mask = 0xffffffffu;
+  int asset = -1;
+};
+
+struct AssetStep {
+  std::string name;
 };
 
 class NativeScene {
@@ -107,35 +122,68 @@ class NativeScene {
     return static_cast<int>(materials_++);
   }
 
+  // A new empty asset (scene/instance.hpp): objects added with its index go into it, and
+  // instances place it. Returns its index.
+  int add_asset(const std::string& name) {
+    steps_.emplace_back(AssetStep{name});
+    asset_names_.push_back(name);
+    asset_sizes_.push_back(0);
+    bump();
+    return static_cast<int>(asset_names_.size()) - 1;
+  }
+  size_t asset_count() const { return asset_names_.size(); }
+
   // An object whose material is -1 takes the scene's default material (Material{}),
-  // added with the first such object that is valid.
-  int add_object(Object<double> object, std::optional<Transform> transform) {
+  // added with the first such object that is valid. With asset >= 0 the object goes
+  // into that asset (no planes, no instances there) and its index there is returned;
+  // else its object index. An instance keeps material -1: its asset's own.
+  int add_object(Object<double> object, std::optional<Transform> transform, int asset = -1) {
+    const bool instance = std::holds_alternative<twinray::Instance<double>>(object);
     int& material = std::visit([](auto& o) -> int& { return o.material; }, object);
-    const bool new_default = material == -1 && default_material_ < 0;
-    if (material == -1) material = new_default ? int(materials_) : default_material_;
-    twinray::validate_object(object, objects_, materials_ + (new_default ? 1 : 0));
+    const bool new_default = !instance && material == -1 && default_material_ < 0;
+    if (!instance && material == -1) material = new_default ? int(materials_) : default_material_;
+    const size_t materials = materials_ + (new_default ? 1 : 0);
+    std::string path = twinray::detail::at("objects", objects_);
+    if (asset >= 0) {
+      if (static_cast<size_t>(asset) >= asset_names_.size())
+        throw twinray::invalid_input("asset: no asset with index " + std::to_string(asset) + " (" +
+                                     std::to_string(asset_names_.size()) + " defined)");
+      const std::string& name = asset_names_[static_cast<size_t>(asset)];
+      path = twinray::detail::at(name.empty()
+                                     ? twinray::detail::at("assets", static_cast<size_t>(asset))
+                                     : "assets." + name,
+                                 asset_sizes_[static_cast<size_t>(asset)]);
+    }
+    twinray::detail::validate_object_at(
+        object, [&] { return path; }, materials, asset_names_.size(), asset >= 0);
     if (transform) {  // a transform a sphere cannot take, or a result out of range
       Object<double> placed = object;
       try {
         twinray::place(placed, *transform);
       } catch (const twinray::Error& e) {
-        throw twinray::invalid_input(twinray::detail::at("objects", objects_) +
-                                     ".transform: " + e.what());
+        throw twinray::invalid_input(path + ".transform: " + e.what());
       }
+      if (auto* in = std::get_if<twinray::Instance<double>>(&placed))
+        twinray::detail::validate_instance_map([&] { return path; }, in->to_world);
     }
     if (new_default) {
       steps_.emplace_back(Material<double>{});
       default_material_ = static_cast<int>(materials_++);
     }
-    steps_.emplace_back(ObjectStep{std::move(object), transform});
+    steps_.emplace_back(ObjectStep{std::move(object), transform, asset});
     bump();
+    if (asset >= 0) return static_cast<int>(asset_sizes_[static_cast<size_t>(asset)]++);
     return static_cast<int>(objects_++);
   }
 
   // Reads the file now, to check it and count its materials; it is read again in the
   // tracer's precision when a tracer packs the scene. Returns the loader's warnings.
   std::vector<std::string> add_obj(const std::string& path, int material,
-                                   std::optional<Transform> transform, uint32_t mask, int* index) {
+                                   std::optional<Transform> transform, uint32_t mask, int* index,
+                                   int asset = -1) {
+    if (asset >= static_cast<int>(asset_names_.size()))
+      throw twinray::invalid_input("asset: no asset with index " + std::to_string(asset) + " (" +
+                                   std::to_string(asset_names_.size()) + " defined)");
     if (material < -1 || material >= static_cast<int>(materials_))
       throw twinray::invalid_input(twinray::detail::at("objects", objects_) +
                                    ".material: no material with index " + std::to_string(material) +
@@ -145,10 +193,11 @@ class NativeScene {
     twinray::io::ObjModel<double> model = twinray::io::load_obj_model<double>(path, options);
     std::vector<std::string> warnings = model.warnings;
     const size_t added = material < 0 ? twinray::io::adopted_material_count(model) : 0;
-    ObjFileStep step{path, material, transform, mask};
+    ObjFileStep step{path, material, transform, mask, asset};
     steps_.emplace_back(step);
     materials_ += added;
-    *index = static_cast<int>(objects_++);
+    *index = asset >= 0 ? static_cast<int>(asset_sizes_[static_cast<size_t>(asset)]++)
+                        : static_cast<int>(objects_++);
     bump();
     return warnings;
   }
@@ -207,7 +256,11 @@ class NativeScene {
       } else if (auto* o = std::get_if<ObjectStep>(&step)) {
         Object<T> object = rounded<T>(o->object);
         if (o->transform) twinray::place(object, *o->transform);
-        scene.add(std::move(object));
+        add_to(scene, o->asset, std::move(object));
+      } else if (auto* a = std::get_if<AssetStep>(&step)) {
+        twinray::Asset<T> asset;
+        asset.name = a->name;
+        scene.add_asset(asset);
       } else {
         const auto& f = std::get<ObjFileStep>(step);
         twinray::io::ObjModelOptions options;
@@ -224,14 +277,22 @@ class NativeScene {
         mesh.mask = f.mask;
         Object<T> object(std::move(mesh));
         if (f.transform) twinray::place(object, *f.transform);
-        scene.add(std::move(object));
+        add_to(scene, f.asset, std::move(object));
       }
     }
     return scene;
   }
 
  private:
-  using Step = std::variant<Material<double>, ObjectStep, ObjFileStep>;
+  using Step = std::variant<Material<double>, ObjectStep, ObjFileStep, AssetStep>;
+
+  template <class T>
+  static void add_to(twinray::Scene<T>& scene, int asset, Object<T> object) {
+    if (asset < 0)
+      scene.add(std::move(object));
+    else
+      scene.assets[static_cast<size_t>(asset)].objects.push_back(std::move(object));
+  }
 
   struct EnvironmentStep {
     std::string path;
@@ -258,6 +319,8 @@ class NativeScene {
   std::string path_;  // the scene file loaded, or empty
   twinray::io::SceneFile<double> file_;
   std::vector<Step> steps_;
+  std::vector<std::string> asset_names_;
+  std::vector<size_t> asset_sizes_;  // objects in each asset so far
   size_t materials_ = 0, objects_ = 0;
   int default_material_ = -1;
   glm::dvec3 background_{0.0, 0.0, 0.0};

@@ -90,12 +90,12 @@ class NativeTracer {
   // The closest hit of each ray; tmin, tmax and mask hold one value or one per ray.
   void intersect(const NativeScene& scene, In2<T> origins, In2<T> directions, In1<T> tmin,
                  In1<T> tmax, In1<uint32_t> mask, Out1<T> t, Out1<T> u, Out1<T> v, Out2<T> normal,
-                 Out1<int32_t> object, Out1<int32_t> primitive) {
+                 Out1<int32_t> object, Out1<int32_t> primitive, Out1<int32_t> instance) {
     prepare(scene);
     const size_t n = origins.shape(0);
     check_batch(n, directions, tmin, tmax, mask);
-    for (size_t size :
-         {t.shape(0), u.shape(0), v.shape(0), normal.shape(0), object.shape(0), primitive.shape(0)})
+    for (size_t size : {t.shape(0), u.shape(0), v.shape(0), normal.shape(0), object.shape(0),
+                        primitive.shape(0), instance.shape(0)})
       if (size != n) throw twinray::invalid_input("intersect: an output array is not of n rays");
     nb::gil_scoped_release release;
     std::vector<twinray::Ray<T>> rays(std::min(n, kQueryChunk));
@@ -112,6 +112,7 @@ class NativeTracer {
           T* nrm = normal.data() + 3 * r;
           nrm[0] = h.nx, nrm[1] = h.ny, nrm[2] = h.nz;
           object.data()[r] = h.object, primitive.data()[r] = h.primitive;
+          instance.data()[r] = h.instance;
         }
       });
     }

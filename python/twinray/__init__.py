@@ -223,34 +223,59 @@ class Scene:
         added with the first object that asks for it)."""
         return -1 if material is None else _index("material", material)
 
+    @staticmethod
+    def _asset(asset: Optional[int]) -> int:
+        return -1 if asset is None else _index("asset", asset)
+
+    def add_asset(self, name: str = "") -> int:
+        """A new, empty asset: objects added with ``asset=`` its index go into it instead
+        of the scene, and are rendered only where add_instance() places them. Assets hold
+        spheres, triangles, meshes and OBJ files (no planes, no instances). Returns its
+        index."""
+        return self._scene.add_asset(str(name))
+
+    def add_instance(self, asset: int, transform: Any = None, material: Optional[int] = None,
+                     mask: int = _ALL_BITS) -> int:
+        """Places asset `asset` by `transform` (any invertible affine 4x4 map: rotation,
+        uneven scale, mirroring), packed once however often it is placed; `material`
+        replaces the asset's materials. Returns the instance's object index."""
+        m = -1 if material is None else _index("material", material)
+        return self._scene.add_instance(_index("asset", asset), m, _mask(mask),
+                                        _transform(transform))
+
     def add_mesh(self, vertices: Any, triangles: Any, material: Optional[int] = None,
-                 transform: Any = None, mask: int = _ALL_BITS) -> int:
+                 transform: Any = None, mask: int = _ALL_BITS,
+                 asset: Optional[int] = None) -> int:
         """An indexed triangle mesh: vertices (n, 3) real numbers, triangles (m, 3)
-        integer indices into them. Returns the object's index."""
+        integer indices into them. Returns the object's index (in the asset, with
+        `asset`)."""
         v = _rows("vertices", vertices, np.float64)
         t = _real_array("triangles", triangles)
         if t.dtype.kind not in "iu":
             raise ValueError(f"triangles: must hold integer indices, got dtype {t.dtype}")
         t = _rows("triangles", t, np.int64)
         return self._scene.add_mesh(v, t, self._material(material), _mask(mask),
-                                    _transform(transform))
+                                    _transform(transform), self._asset(asset))
 
     def add_obj(self, path: PathLike, material: Optional[int] = None, transform: Any = None,
-                mask: int = _ALL_BITS) -> int:
+                mask: int = _ALL_BITS, asset: Optional[int] = None) -> int:
         """A Wavefront OBJ file, with its MTL materials and textures unless `material`
-        overrides them. Returns the object's index."""
+        overrides them. Returns the object's index (in the asset, with `asset`)."""
         m = -1 if material is None else _index("material", material)
-        index, notes = self._scene.add_obj(os.fspath(path), m, _mask(mask), _transform(transform))
+        index, notes = self._scene.add_obj(os.fspath(path), m, _mask(mask), _transform(transform),
+                                           self._asset(asset))
         for w in notes:
             warnings.warn(w, stacklevel=2)
         return index
 
     def add_sphere(self, center: Vector, radius: float, material: Optional[int] = None,
-                   transform: Any = None, mask: int = _ALL_BITS) -> int:
-        """A sphere (radius > 0). Returns the object's index."""
+                   transform: Any = None, mask: int = _ALL_BITS,
+                   asset: Optional[int] = None) -> int:
+        """A sphere (radius > 0). Returns the object's index (in the asset, with
+        `asset`)."""
         return self._scene.add_sphere(_vec3("center", center), float(radius),
                                       self._material(material), _mask(mask),
-                                      _transform(transform))
+                                      _transform(transform), self._asset(asset))
 
     def add_plane(self, point: Vector, normal: Vector, material: Optional[int] = None,
                   transform: Any = None, mask: int = _ALL_BITS) -> int:
@@ -260,11 +285,12 @@ class Scene:
                                      _transform(transform))
 
     def add_triangle(self, a: Vector, b: Vector, c: Vector, material: Optional[int] = None,
-                     transform: Any = None, mask: int = _ALL_BITS) -> int:
+                     transform: Any = None, mask: int = _ALL_BITS,
+                     asset: Optional[int] = None) -> int:
         """One triangle, lit from both sides."""
         return self._scene.add_triangle(_vec3("a", a), _vec3("b", b), _vec3("c", c),
                                         self._material(material), _mask(mask),
-                                        _transform(transform))
+                                        _transform(transform), self._asset(asset))
 
     def add_light(self, position: Vector, intensity: float = 1.0,
                   color: Vector = (1.0, 1.0, 1.0)) -> int:
@@ -321,6 +347,10 @@ class Scene:
     def material_count(self) -> int:
         return self._scene.material_count
 
+    @property
+    def asset_count(self) -> int:
+        return self._scene.asset_count
+
 
 class Hits:
     """The closest hit of each ray of Tracer.intersect(), as arrays of n entries.
@@ -328,15 +358,17 @@ class Hits:
     t: distance in lengths of the ray's direction (inf for a miss); u, v: barycentric
     coordinates on a triangle (the surface parameters on other shapes); normal (n, 3):
     unit geometric normal facing the ray's origin; object: index in the scene (-1 for a
-    miss); primitive: the triangle's index in its mesh (0 for other shapes, -1 for a miss).
+    miss); primitive: the triangle's index in its mesh (0 for other shapes, -1 for a miss);
+    instance: -1, or for a hit inside an instance the instance's index in the scene, with
+    object then the object's index in its asset.
     """
 
-    __slots__ = ("t", "u", "v", "normal", "object", "primitive")
+    __slots__ = ("t", "u", "v", "normal", "object", "primitive", "instance")
 
     def __init__(self, t: np.ndarray, u: np.ndarray, v: np.ndarray, normal: np.ndarray,
-                 object: np.ndarray, primitive: np.ndarray) -> None:
+                 object: np.ndarray, primitive: np.ndarray, instance: np.ndarray) -> None:
         self.t, self.u, self.v, self.normal = t, u, v, normal
-        self.object, self.primitive = object, primitive
+        self.object, self.primitive, self.instance = object, primitive, instance
 
     def __len__(self) -> int:
         return len(self.t)
@@ -475,9 +507,9 @@ class Tracer:
         n = o.shape[0]
         dt = self._dtype
         hits = Hits(np.empty(n, dt), np.empty(n, dt), np.empty(n, dt), np.empty((n, 3), dt),
-                    np.empty(n, np.int32), np.empty(n, np.int32))
+                    np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, np.int32))
         self._tracer.intersect(self.scene._scene, o, d, lo, hi, m, hits.t, hits.u, hits.v,
-                               hits.normal, hits.object, hits.primitive)
+                               hits.normal, hits.object, hits.primitive, hits.instance)
         return hits
 
     def occluded(self, origins: Any, directions: Any, tmin: Any = 0.0, tmax: Any = math.inf,

@@ -1,5 +1,5 @@
 """A batch of 1e7 rays adds at most its output arrays to the process's peak memory, and
-a fixed allowance for the chunk buffers (2^18 rays of rays and hits, 17 MiB in float)."""
+a fixed allowance for the chunk buffers (2^18 rays of rays and hits, 20 MiB in float)."""
 
 import subprocess
 import sys
@@ -28,7 +28,8 @@ with open("/proc/self/clear_refs", "w") as f:
 before = status("VmRSS")
 hits = tracer.intersect(o, d)
 after = status("VmHWM")
-outputs = sum(a.nbytes for a in (hits.t, hits.u, hits.v, hits.normal, hits.object, hits.primitive))
+outputs = sum(a.nbytes for a in (hits.t, hits.u, hits.v, hits.normal, hits.object, hits.primitive,
+                                  hits.instance))
 print(before, after, outputs // 1024, int((hits.object >= 0).sum()))
 """
 
