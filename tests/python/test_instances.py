@@ -124,3 +124,20 @@ def test_the_example_scene_loads_and_renders_its_instances():
     scene.camera.width, scene.camera.height = 64, 40
     ids = twinray.Tracer(scene, backend="cpu").render(aov="object")
     assert set(np.unique(ids).astype(int)) >= {0, 1, 2, 3, 4}
+
+
+def test_the_forest_script_writes_a_scene_that_renders_alike_on_both_backends(tmp_path):
+    import subprocess
+    import sys
+    from conftest import REPO
+    subprocess.run([sys.executable, str(REPO / "scripts" / "make_forest.py"), str(tmp_path),
+                    "--instances", "60", "--triangles", "2000"], check=True, capture_output=True)
+    scene = twinray.Scene.load(tmp_path / "forest.json")
+    assert scene.object_count == 61  # 60 instances and the ground
+    scene.camera.width, scene.camera.height = 96, 54
+    cpu = twinray.Tracer(scene, backend="cpu").render()
+    assert np.count_nonzero(cpu) > cpu.size // 2
+    if twinray.opencl_available()[0]:
+        assert np.array_equal(cpu, twinray.Tracer(scene, backend="opencl").render())
+    ids = twinray.Tracer(scene, backend="cpu").render(aov="object")
+    assert len(np.unique(ids)) > 10  # many instances in view, each its own object index

@@ -442,8 +442,12 @@ TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nea
         stack_t[top] = TR_R(0.0);
         ++top;
       }
-      for (; leaves != 0u; leaves &= leaves - 1u) {
-        int k = TR_LOWEST_BIT(leaves);
+      /* Farthest leaf first, so that the nearest instance is entered first and its hit
+       * shortens the walks of the others. */
+      int order[TR_BVH_MAX_WIDTH];
+      int n_leaves = tr_inner_order(leaves, t_entry, nearest->t * grow, 1, order);
+      for (int j = n_leaves - 1; j >= 0; --j) {
+        int k = order[j];
         for (int i = first[k]; i < first[k] + count[k]; ++i) {
           if (query && tr_use(s, TR_F_MASKS) && (s->instances[i].mask & ray_mask) == 0u) continue;
           stack_node[top] = TR_WALK_ENTER(i);

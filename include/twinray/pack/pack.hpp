@@ -522,32 +522,40 @@ void pack_assets(const Scene<T>& scene, int bvh_width, PackedScene<T>& ps) {
 template <class T>
 void pack_top_level(const Scene<T>& scene, int bvh_width, PackedScene<T>& ps) {
   std::vector<int> object_of;  // the instances' object indices, in object order
-  LargeVector<bvh::PrimRef<T>> refs;
-  for (size_t i = 0; i < scene.objects.size(); ++i) {
-    auto* in = std::get_if<Instance<T>>(&scene.objects[i]);
-    if (!in) continue;
-    const int id = static_cast<int>(object_of.size());
-    object_of.push_back(static_cast<int>(i));
-    const bvh::Box& box = ps.asset_boxes[static_cast<size_t>(in->asset)];
-    refs.push_back({bvh::rounded_box<T>(placed_box(box, in->to_world)), id});
-  }
+  for (size_t i = 0; i < scene.objects.size(); ++i)
+    if (std::holds_alternative<Instance<T>>(scene.objects[i]))
+      object_of.push_back(static_cast<int>(i));
+  const int n = static_cast<int>(object_of.size());
+  auto instance = [&](int k) -> const Instance<T>& {
+    return std::get<Instance<T>>(
+        scene.objects[static_cast<size_t>(object_of[static_cast<size_t>(k)])]);
+  };
+  // Each instance's world box, on every thread.
+  LargeVector<bvh::PrimRef<T>> refs(static_cast<size_t>(n));
+  parallel_for(n, 512, [&](int k) {
+    const Instance<T>& in = instance(k);
+    const bvh::Box& box = ps.asset_boxes[static_cast<size_t>(in.asset)];
+    refs[static_cast<size_t>(k)] = {bvh::rounded_box<T>(placed_box(box, in.to_world)), k};
+  });
   bvh::Bvh<T> top = bvh::build<T>(std::move(refs), 0, bvh_width);
+  // The instances in the leaves' order, with both maps rounded to T once.
   ps.instances.resize(top.order.size());
-  for (size_t k = 0; k < top.order.size(); ++k) {
-    const int object = object_of[static_cast<size_t>(top.order[k])];
-    const Instance<T>& in = std::get<Instance<T>>(scene.objects[static_cast<size_t>(object)]);
-    typename device::Code<T>::Instance& d = ps.instances[k];
-    const glm::dmat4 to_object = glm::inverse(in.to_world);
+  parallel_for(static_cast<int>(top.order.size()), 512, [&](int k) {
+    const int id = top.order[static_cast<size_t>(k)];
+    const Instance<T>& in = instance(id);
+    typename device::Code<T>::Instance& d = ps.instances[static_cast<size_t>(k)];
+    glm::dmat4 to_object(1.0);
+    affine_inverse(in.to_world, to_object);  // checked by validate_object
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 4; ++c) {
         d.to_object[4 * r + c] = static_cast<T>(to_object[c][r]);
         d.to_world[4 * r + c] = static_cast<T>(in.to_world[c][r]);
       }
     d.root = ps.asset_roots[static_cast<size_t>(in.asset)];
-    d.object = object;
+    d.object = object_of[static_cast<size_t>(id)];
     d.material = in.material;
     d.mask = in.mask;
-  }
+  });
   // The top level's nodes after the assets': inner links move with them, leaf links
   // index ps.instances.
   const int node_base = ps.bvh_nodes.size();
@@ -648,6 +656,7 @@ bool update_instances(PackedScene<T>& ps, const Scene<T>& scene) {
     if (ps.asset_roots[static_cast<size_t>(in->asset)] < 0) return false;  // not packed
   }
   const int width = ps.bvh_width();
+  LargeArrayRecycling recycling;
   ps.bvh_nodes.resize(static_cast<size_t>(ps.instance_root));  // the assets' nodes stay
   detail::pack_top_level(scene, width, ps);
   return true;

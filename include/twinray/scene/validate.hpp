@@ -15,7 +15,6 @@
 #include <type_traits>
 #include <utility>
 #include <glm/geometric.hpp>
-#include <glm/matrix.hpp>
 
 #include <twinray/core/error.hpp>
 #include <twinray/core/options.hpp>
@@ -214,11 +213,9 @@ void validate_instance_map(const Base& base, const glm::dmat4& m) {
                                           ", column " + std::to_string(c) + ")");
   if (m[0][3] != 0.0 || m[1][3] != 0.0 || m[2][3] != 0.0 || m[3][3] != 1.0)
     refuse(base() + ".transform", "is not affine: its last row must be 0 0 0 1");
-  glm::dmat4 inv = glm::inverse(m);
-  bool finite = std::isfinite(glm::determinant(m)) && glm::determinant(m) != 0.0;
-  for (int c = 0; c < 4 && finite; ++c)
-    for (int r = 0; r < 4; ++r) finite = finite && std::isfinite(inv[c][r]);
-  if (!finite) refuse(base() + ".transform", "is singular: it has no inverse to map rays by");
+  glm::dmat4 inverse;
+  if (!affine_inverse(m, inverse))
+    refuse(base() + ".transform", "is singular: it has no inverse to map rays by");
 }
 
 // The object at path base() of a scene with `materials` materials and `assets` assets;
