@@ -8,6 +8,8 @@
 #include <embree3/rtcore.h>
 
 #include <algorithm>
+#include <chrono>
+#include <stdexcept>
 #include <cmath>
 #include <cstddef>
 #include <type_traits>
@@ -56,6 +58,16 @@ struct World {
   std::vector<Light> lights;
   vec3 background{0};
   long long primitives = 0;
+  // Instances (RTC_GEOMETRY_TYPE_INSTANCE): each asset's triangles are one geometry of
+  // a scene of its own; a hit with instID set reads its material from its asset's
+  // list and its normal, which Embree gives in the asset's space, through the
+  // instance's inverse transpose.
+  std::vector<RTCScene> asset_scenes;
+  std::vector<std::vector<int>> asset_tri_material;
+  std::vector<int> instance_of_geom;  // top-level geomID -> instance index, or -1
+  std::vector<int> instance_asset;
+  std::vector<glm::mat3> instance_normal_map;
+  double assets_ms = 0;  // the asset scenes' commits, within build_world
 };
 
 enum class Mode { Single, Packet8, Packet16, Stream };
@@ -198,6 +210,24 @@ inline void sphere_occluded(const RTCOccludedFunctionNArguments* args) {
   by_width(args, [args](auto k) { sphere_occluded_n<decltype(k)::value>(args); });
 }
 
+// One triangle geometry of vertices verts (x y z ...) and index triples tris, attached
+// to `scene`; its geometry ID.
+inline unsigned attach_triangles(RTCDevice device, RTCScene scene, const std::vector<float>& verts,
+                                 const std::vector<unsigned>& tris) {
+  RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  // Embree reads vertex buffers 16 bytes at a time: one float of padding at the end.
+  float* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
+      g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), verts.size() / 3 + 1));
+  std::copy(verts.begin(), verts.end(), vb);
+  unsigned* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+      g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), tris.size() / 3));
+  std::copy(tris.begin(), tris.end(), ib);
+  rtcCommitGeometry(g);
+  unsigned id = rtcAttachGeometry(scene, g);
+  rtcReleaseGeometry(g);
+  return id;
+}
+
 inline void build_world(World& w, const twinray_bench::BenchScene<float>& b,
                         SphereKind sphere_kind) {
   const auto& scene = b.scene;
@@ -231,6 +261,57 @@ inline void build_world(World& w, const twinray_bench::BenchScene<float>& b,
   w.primitives =
       static_cast<long long>(w.sphere_material.size() + w.tri_material.size() + w.planes.size());
   w.scene = rtcNewScene(w.device);
+  // Each asset as a scene of one triangle geometry, committed here (Embree's instances
+  // need their scene committed first); then an instance geometry per placement.
+  auto a0 = std::chrono::steady_clock::now();
+  for (const auto& asset : scene.assets) {
+    std::vector<float> av;
+    std::vector<unsigned> at;
+    std::vector<int> materials;
+    for (const auto& o : asset.objects) {
+      if (auto* t = std::get_if<twinray::Triangle<float>>(&o)) {
+        unsigned base = static_cast<unsigned>(av.size() / 3);
+        for (const auto& v : t->vertices) av.insert(av.end(), {v.x, v.y, v.z});
+        at.insert(at.end(), {base, base + 1, base + 2});
+        materials.push_back(t->material);
+      } else if (auto* m = std::get_if<twinray::Mesh<float>>(&o)) {
+        unsigned base = static_cast<unsigned>(av.size() / 3);
+        for (const auto& v : m->vertices) av.insert(av.end(), {v.x, v.y, v.z});
+        for (const auto& f : m->triangles) {
+          at.insert(at.end(),
+                    {base + unsigned(f[0]), base + unsigned(f[1]), base + unsigned(f[2])});
+          materials.push_back(m->material);
+        }
+      } else {
+        throw std::runtime_error("embree_bench: assets of triangles and meshes only");
+      }
+    }
+    RTCScene child = rtcNewScene(w.device);
+    attach_triangles(w.device, child, av, at);
+    rtcCommitScene(child);
+    w.asset_scenes.push_back(child);
+    w.asset_tri_material.push_back(std::move(materials));
+  }
+  w.assets_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - a0).count();
+  for (const auto& o : scene.objects) {
+    auto* in = std::get_if<twinray::Instance<float>>(&o);
+    if (!in) continue;
+    RTCGeometry g = rtcNewGeometry(w.device, RTC_GEOMETRY_TYPE_INSTANCE);
+    rtcSetGeometryInstancedScene(g, w.asset_scenes[static_cast<size_t>(in->asset)]);
+    float xfm[12];  // column-major 3x4: columns x, y, z, translation
+    for (int c = 0; c < 4; ++c)
+      for (int r = 0; r < 3; ++r) xfm[3 * c + r] = static_cast<float>(in->to_world[c][r]);
+    rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, xfm);
+    rtcCommitGeometry(g);
+    unsigned id = rtcAttachGeometry(w.scene, g);
+    rtcReleaseGeometry(g);
+    if (w.instance_of_geom.size() <= id) w.instance_of_geom.resize(id + 1, -1);
+    w.instance_of_geom[id] = static_cast<int>(w.instance_asset.size());
+    w.instance_asset.push_back(in->asset);
+    w.instance_normal_map.push_back(
+        glm::mat3(glm::transpose(glm::inverse(glm::dmat3(in->to_world)))));
+  }
   if (!w.spheres.empty() && sphere_kind == SphereKind::User) {
     // Embree builds its BVH over the boxes sphere_bounds gives and calls
     // sphere_intersect / sphere_occluded for the spheres a ray reaches.
@@ -252,19 +333,7 @@ inline void build_world(World& w, const twinray_bench::BenchScene<float>& b,
     w.sphere_geom = rtcAttachGeometry(w.scene, g);
     rtcReleaseGeometry(g);
   }
-  if (!tris.empty()) {
-    RTCGeometry g = rtcNewGeometry(w.device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    // Embree reads vertex buffers 16 bytes at a time: one float of padding at the end.
-    float* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
-        g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), verts.size() / 3 + 1));
-    std::copy(verts.begin(), verts.end(), vb);
-    unsigned* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-        g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), tris.size() / 3));
-    std::copy(tris.begin(), tris.end(), ib);
-    rtcCommitGeometry(g);
-    w.tri_geom = rtcAttachGeometry(w.scene, g);
-    rtcReleaseGeometry(g);
-  }
+  if (!tris.empty()) w.tri_geom = attach_triangles(w.device, w.scene, verts, tris);
 }
 
 // The analytic floor: closest plane hit in (tnear, tfar), or -1.
@@ -365,6 +434,7 @@ void intersect_packets(RTCScene scene, RTCIntersectContext* ctx, RTCRayHit* rh, 
       RTCRayHit& out = rh[base + k];
       out.ray.tfar = p.ray.tfar[k];
       out.hit.geomID = p.hit.geomID[k], out.hit.primID = p.hit.primID[k];
+      out.hit.instID[0] = p.hit.instID[0][k];
       out.hit.Ng_x = p.hit.Ng_x[k], out.hit.Ng_y = p.hit.Ng_y[k], out.hit.Ng_z = p.hit.Ng_z[k];
     }
   }

@@ -49,6 +49,11 @@ bool is_builtin(const std::string& name) {
         twinray_bench::parse_count(name.substr(prefix.size())) > 0)
       return true;
   }
+  const size_t x = name.find('x');
+  if (name.compare(0, 7, "forest_") == 0 && x != std::string::npos &&
+      twinray_bench::parse_count(name.substr(7, x - 7)) > 0 &&
+      twinray_bench::parse_count(name.substr(x + 1)) > 0)
+    return true;
   return name == "demo" || name == "demo_4spp";
 }
 
@@ -447,7 +452,8 @@ const Command kBench(
       auto a = std::make_shared<BenchArgs>();
       app.add_option("SCENE", a->scene,
                      "a scene file, or a built-in: demo, demo_4spp, spheres_<N>, mesh_<N>, "
-                     "obj_<N> (N like 1e5); default: the built-in set");
+                     "obj_<N> (N like 1e5), forest_<K>x<N> (K instances of mesh_<N>'s blob); "
+                     "default: the built-in set");
       app.add_option("--backend", a->backend, "cpu, opencl, or all (default: both available)")
           ->check(CLI::IsMember({"cpu", "opencl", "auto", "all"}));
       app.add_option("--precision", a->precision, "float (default), double, or both")

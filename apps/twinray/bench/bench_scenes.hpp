@@ -6,6 +6,7 @@
 //                 at every N and the image stays alike while N grows
 //   mesh_<N>      a bumpy closed blob of about N triangles over the same floor
 //   obj_<N>       mesh_<N> written to an OBJ file and read back by io/obj_mesh.hpp
+//   forest_<K>x<N> mesh_<N>'s blob as one asset, placed by K instances (a two-level BVH)
 // N is written 1e3, 1e5, 1e6 (or plain digits). Every scene has one point light, shadow
 // rays and reflections off the glazed floor (and the glazed quarter of the spheres).
 #pragma once
@@ -27,6 +28,7 @@
 
 #include <twinray/io/obj_mesh.hpp>
 #include <twinray/scene/demo_scene.hpp>
+#include <twinray/scene/transform.hpp>
 
 namespace twinray_bench {
 
@@ -146,6 +148,34 @@ BenchScene<T> blob_scene(const twinray::Mesh<T>& mesh) {
   return b;
 }
 
+// A forest: blob_mesh(n_triangles) as one asset, placed k times on a square grid over
+// the floor (spacing 0.3, each turned about the vertical and scaled by 0.08-0.12 at
+// random, standing on the floor), in front of the demo camera.
+template <class T>
+BenchScene<T> forest_scene(long long k, long long n_triangles) {
+  BenchScene<T> b = blob_scene<T>(blob_mesh<T>(n_triangles, 0));
+  twinray::Asset<T> tree;
+  tree.name = "tree";
+  tree.objects.push_back(b.scene.objects[0]);
+  b.scene.objects.erase(b.scene.objects.begin());
+  const int asset = b.scene.add_asset(tree);
+  const int side = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(k))));
+  std::mt19937_64 rng(777);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  glm::dmat4 to_origin(1.0);
+  to_origin[3] = glm::dvec4(0.2, 0.3, 1.6, 1.0);  // the blob's center (blob_mesh) to 0
+  for (long long i = 0; i < k; ++i) {
+    const double scale = 0.08 + 0.04 * u(rng), degrees = 360.0 * u(rng);
+    const double x = -0.3 * side / 2 + 0.3 * static_cast<double>(i % side);
+    const double z = 1.0 - 0.3 * static_cast<double>(i / side);
+    const double y = 1.0 - 1.2 * 1.15 * scale;  // on the floor (y = 1, up is -y)
+    twinray::Transform t = twinray::Transform::scale_rotate_translate(
+        {scale, scale, scale}, {0, 1, 0}, degrees, {x, y, z});
+    b.scene.add_instance(asset, t.m * to_origin);
+  }
+  return b;
+}
+
 // Writes a mesh as a Wavefront OBJ (v and f lines, 1-based indices).
 template <class T>
 void write_obj(const std::string& path, const twinray::Mesh<T>& mesh) {
@@ -183,6 +213,11 @@ BenchScene<T> make_scene(const std::string& name, int width, int height,
     b = random_spheres<T>(parse_count(rest), width, height);
   } else if (starts("mesh_", &rest) && parse_count(rest) > 0) {
     b = blob_scene<T>(blob_mesh<T>(parse_count(rest), 0));
+  } else if (starts("forest_", &rest) && rest.find('x') != std::string::npos &&
+             parse_count(rest.substr(0, rest.find('x'))) > 0 &&
+             parse_count(rest.substr(rest.find('x') + 1)) > 0) {
+    b = forest_scene<T>(parse_count(rest.substr(0, rest.find('x'))),
+                        parse_count(rest.substr(rest.find('x') + 1)));
   } else if (starts("obj_", &rest) && parse_count(rest) > 0) {
     std::string path = obj_dir + "/twinray_bench_blob_" + rest + ".obj";
     write_obj(path, blob_mesh<T>(parse_count(rest), 0));
@@ -193,8 +228,9 @@ BenchScene<T> make_scene(const std::string& name, int width, int height,
     b = blob_scene<T>(mesh);
     b.load_ms = ms;
   } else {
-    throw std::invalid_argument("unknown benchmark scene '" + name +
-                                "' (demo, demo_4spp, spheres_<N>, mesh_<N>, obj_<N>)");
+    throw std::invalid_argument(
+        "unknown benchmark scene '" + name +
+        "' (demo, demo_4spp, spheres_<N>, mesh_<N>, obj_<N>, forest_<K>x<N>)");
   }
   b.name = name;
   b.camera = demo_camera<T>(width, height);
