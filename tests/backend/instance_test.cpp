@@ -177,7 +177,8 @@ TEST_CASE_TEMPLATE("an instance renders as its asset's objects placed by hand", 
   CHECK(lit > a.rgb.size() / 10);
 }
 
-TEST_CASE("the object AOV shows each instance's object index; its material replaces the asset's") {
+TEST_CASE(
+    "the object AOV shows each instance's object index, and its material replaces the asset's") {
   Scene<float> own = three_placements<float>(), green = three_placements<float>();
   Material<float> g;
   g.color = vec3<float>(0.1f, 0.9f, 0.1f);
