@@ -334,6 +334,19 @@ class SceneReader : public JsonReader<T> {
     }
   }
 
+  // The index `name` stands for in `names` (a material's or an asset's); refused at
+  // `path` with the names `section` defines (and a near miss) where it is not there.
+  int named(const std::map<std::string, int>& names, const std::string& name,
+            const std::string& path, const char* what, const char* section) {
+    auto it = names.find(name);
+    if (it != names.end()) return it->second;
+    std::vector<std::string> defined;
+    for (const auto& n : names) defined.push_back(n.first);
+    fail(path, std::string("no ") + what + " named \"" + name + "\"" + suggestion(name, defined) +
+                   (defined.empty() ? "; `" + std::string(section) + "` defines none"
+                                    : "; defined: " + join(defined)));
+  }
+
   // A material name, or an inline material object.
   int material_ref(const Json& object, const std::string& path, SceneFile<T>& out) {
     std::string mpath = key_path(path, "material");
@@ -346,16 +359,7 @@ class SceneReader : public JsonReader<T> {
     }
     if (!m.is_string())
       fail(mpath, "must be a material name or a material object, got " + kind_of(m));
-    std::string name = m.get<std::string>();
-    auto it = names_.find(name);
-    if (it == names_.end()) {
-      std::vector<std::string> defined;
-      for (const auto& n : names_) defined.push_back(n.first);
-      fail(mpath,
-           "no material named \"" + name + "\"" + suggestion(name, defined) +
-               (defined.empty() ? "; `materials` defines none" : "; defined: " + join(defined)));
-    }
-    return it->second;
+    return named(names_, m.get<std::string>(), mpath, "material", "materials");
   }
 
   void count_triangles(long long n, const std::string& path) {
@@ -453,17 +457,8 @@ class SceneReader : public JsonReader<T> {
     std::string apath = key_path(path, "asset");
     const Json& a = require(o, path, "asset");
     if (!a.is_string()) fail(apath, "must be the name of an asset, got " + kind_of(a));
-    std::string name = a.get<std::string>();
-    auto it = asset_names_.find(name);
-    if (it == asset_names_.end()) {
-      std::vector<std::string> defined;
-      for (const auto& n : asset_names_) defined.push_back(n.first);
-      fail(apath,
-           "no asset named \"" + name + "\"" + suggestion(name, defined) +
-               (defined.empty() ? "; `assets` defines none" : "; defined: " + join(defined)));
-    }
     Instance<T> instance;
-    instance.asset = it->second;
+    instance.asset = named(asset_names_, a.get<std::string>(), apath, "asset", "assets");
     if (optional(o, "material")) instance.material = material_ref(o, path, out);
     instance.mask = read_mask(o, path);
     if (const Json* t = optional(o, "transform"))
