@@ -536,16 +536,14 @@ Figures case_watertight_grid(Ctx& ctx, double scale, double offset_sizes, bool t
   return f;
 }
 
-// Watertight, closed: a jittered icosphere (1280 triangles) seen from a camera inside
-// it (every pixel must hit), plus single rays from an interior point aimed exactly at
-// every vertex and every edge midpoint (CPU device code; every one must hit).
-template <class T>
-Figures case_watertight_closed(Ctx& ctx, V3<T> center, T radius, bool single_rays) {
-  twinray::Scene<T> scene;
-  int mat = scene.add_material(material<T>(T(0.5), T(0.5), T(0.5)));
-  twinray::Mesh<T> mesh = icosphere<T>(center, radius, 3, mat, 7u, T(0.02));
-  scene.add(mesh);
-  Figures f;
+// What a closed mesh around `center` (about `radius` across) must show: from a camera
+// inside it, in three directions, every pixel hits; and with single_rays, single rays
+// from `center` and `second_origin` aimed exactly at every vertex and every edge
+// midpoint of `mesh` (placed in the world by `mapped`) all hit (CPU device code).
+template <class T, class Map>
+void check_closed_mesh(Ctx& ctx, const twinray::Scene<T>& scene, V3<T> center, T radius,
+                       const twinray::Mesh<T>& mesh, Map mapped, V3<T> second_origin,
+                       bool single_rays, Figures& f) {
   f.leaks = 0;
   const int w = 48;
   for (int view = 0; view < 3; ++view) {
@@ -561,33 +559,48 @@ Figures case_watertight_closed(Ctx& ctx, V3<T> center, T radius, bool single_ray
       }
     f.nonfinite += count_nonfinite(depth, true);
   }
-  if (single_rays) {
-    using K = typename twinray::device::Code<T>::template Kernel<TR_F_ALL>;
-    twinray::RenderOptions o;
-    twinray::Camera<T> cam;
-    cam.position = center + V3<T>(0, 0, 1) * radius;
-    cam.look_at = center;
-    cam.up = V3<T>(0, 1, 0);
-    auto ps = test_support::pack(scene, cam, o);
-    auto sref = ps.ref();
-    std::vector<V3<T>> targets = mesh.vertices;
-    for (auto& t : mesh.triangles)
-      for (int e = 0; e < 3; ++e)
-        targets.push_back((mesh.vertices[t[e]] + mesh.vertices[t[(e + 1) % 3]]) * T(0.5));
-    V3<T> origins[2] = {center, center + V3<T>(T(0.31), T(-0.27), T(0.19)) * radius};
-    for (const V3<T>& from : origins)
-      for (const V3<T>& target : targets) {
-        decltype(K::tr_camera_ray(&ps.params(), 0, 0, K::tr_sample_position(0, 0, 1, 0, 0))) ray;
-        ray.o = from;
-        ray.d = K::tr_normalize(target - from);
-        auto hit = K::tr_no_hit();
-        ++f.samples;
-        if (!K::tr_closest_hit(&sref, &ray, T(INFINITY), &hit))
-          ++f.leaks;
-        else if (!std::isfinite(hit.t))
-          ++f.nonfinite;
-      }
-  }
+  if (!single_rays) return;
+  using K = typename twinray::device::Code<T>::template Kernel<TR_F_ALL>;
+  twinray::RenderOptions o;
+  twinray::Camera<T> cam;
+  cam.position = center + V3<T>(0, 0, 1) * radius;
+  cam.look_at = center;
+  cam.up = V3<T>(0, 1, 0);
+  auto ps = test_support::pack(scene, cam, o);
+  auto sref = ps.ref();
+  std::vector<V3<T>> targets;
+  for (const auto& v : mesh.vertices) targets.push_back(mapped(v));
+  for (auto& t : mesh.triangles)
+    for (int e = 0; e < 3; ++e)
+      targets.push_back(mapped((mesh.vertices[t[e]] + mesh.vertices[t[(e + 1) % 3]]) * T(0.5)));
+  V3<T> origins[2] = {center, second_origin};
+  for (const V3<T>& from : origins)
+    for (const V3<T>& target : targets) {
+      decltype(K::tr_camera_ray(&ps.params(), 0, 0, K::tr_sample_position(0, 0, 1, 0, 0))) ray;
+      ray.o = from;
+      ray.d = K::tr_normalize(target - from);
+      auto hit = K::tr_no_hit();
+      ++f.samples;
+      if (!K::tr_closest_hit(&sref, &ray, T(INFINITY), &hit))
+        ++f.leaks;
+      else if (!std::isfinite(hit.t))
+        ++f.nonfinite;
+    }
+}
+
+// Watertight, closed: a jittered icosphere (1280 triangles) seen from a camera inside
+// it (every pixel must hit), plus single rays from an interior point aimed exactly at
+// every vertex and every edge midpoint (CPU device code; every one must hit).
+template <class T>
+Figures case_watertight_closed(Ctx& ctx, V3<T> center, T radius, bool single_rays) {
+  twinray::Scene<T> scene;
+  int mat = scene.add_material(material<T>(T(0.5), T(0.5), T(0.5)));
+  twinray::Mesh<T> mesh = icosphere<T>(center, radius, 3, mat, 7u, T(0.02));
+  scene.add(mesh);
+  Figures f;
+  check_closed_mesh(
+      ctx, scene, center, radius, mesh, [](const V3<T>& v) { return v; },
+      center + V3<T>(T(0.31), T(-0.27), T(0.19)) * radius, single_rays, f);
   return f;
 }
 
@@ -621,50 +634,12 @@ Figures case_watertight_instanced(Ctx& ctx, V3<T> center, double radius, bool ha
     asset.objects.push_back(part);
     scene.add_instance(scene.add_asset(asset), map);
   }
-  auto mapped = [&](const V3<T>& v) { return V3<T>(map * glm::dvec4(glm::dvec3(v), 1.0)); };
   const T r = T(radius);
   Figures f;
-  f.leaks = 0;
-  const int w = 48;
-  for (int view = 0; view < 3; ++view) {
-    V3<T> dir = view == 0 ? V3<T>(0, 0, -1) : view == 1 ? V3<T>(1, 0.5, 0.2) : V3<T>(-0.3, -1, 0.4);
-    V3<T> pos = center + V3<T>(T(0.1), T(-0.2), T(0.15)) * r;
-    twinray::Camera<T> cam =
-        perspective<T>(pos, pos + dir * r, V3<T>(0.3, 1, -0.2), T(3.5) * r, w, w);
-    twinray::Image<T> depth = depth_image(ctx, scene, cam);
-    for (int y = 0; y < w; ++y)
-      for (int x = 0; x < w; ++x) {
-        ++f.samples;
-        if (std::isinf(depth.pixel(x, y)[0])) ++f.leaks;
-      }
-    f.nonfinite += count_nonfinite(depth, true);
-  }
-  using K = typename twinray::device::Code<T>::template Kernel<TR_F_ALL>;
-  twinray::RenderOptions o;
-  twinray::Camera<T> cam;
-  cam.position = center + V3<T>(0, 0, 1) * r;
-  cam.look_at = center;
-  cam.up = V3<T>(0, 1, 0);
-  auto ps = test_support::pack(scene, cam, o);
-  auto sref = ps.ref();
-  std::vector<V3<T>> targets;
-  for (const auto& v : mesh.vertices) targets.push_back(mapped(v));
-  for (auto& t : mesh.triangles)
-    for (int e = 0; e < 3; ++e)
-      targets.push_back(mapped((mesh.vertices[t[e]] + mesh.vertices[t[(e + 1) % 3]]) * T(0.5)));
-  V3<T> origins[2] = {center, center + V3<T>(T(0.31), T(-0.27), T(0.19)) * T(0.5) * r};
-  for (const V3<T>& from : origins)
-    for (const V3<T>& target : targets) {
-      decltype(K::tr_camera_ray(&ps.params(), 0, 0, K::tr_sample_position(0, 0, 1, 0, 0))) ray;
-      ray.o = from;
-      ray.d = K::tr_normalize(target - from);
-      auto hit = K::tr_no_hit();
-      ++f.samples;
-      if (!K::tr_closest_hit(&sref, &ray, T(INFINITY), &hit))
-        ++f.leaks;
-      else if (!std::isfinite(hit.t))
-        ++f.nonfinite;
-    }
+  check_closed_mesh(
+      ctx, scene, center, r, mesh,
+      [&](const V3<T>& v) { return V3<T>(map * glm::dvec4(glm::dvec3(v), 1.0)); },
+      center + V3<T>(T(0.31), T(-0.27), T(0.19)) * T(0.5) * r, true, f);
   return f;
 }
 
