@@ -35,13 +35,6 @@ using twinray::Transform;
 template <class T>
 using vec3 = glm::vec<3, T>;
 
-template <class T>
-RenderOptions quiet() {
-  RenderOptions o;
-  o.log = [](const std::string&) {};
-  return o;
-}
-
 // A closed UV sphere of radius 1 as a mesh: `rings` x `segments` quads in two triangles
 // each; only the rows of rings [ring_begin, ring_end) (the whole sphere by default).
 template <class T>
@@ -129,7 +122,7 @@ std::pair<double, size_t> image_difference(const Image<T>& a, const Image<T>& b,
 TEST_CASE_TEMPLATE("instances render on the CPU and on OpenCL with the same bits", T, float,
                    double) {
   Scene<T> scene = three_placements<T>();
-  RenderOptions options = quiet<T>();
+  RenderOptions options;  // test::render_with silences the log
   options.spp = 2;
   Image<T> cpu = test::check_parity(scene, view<T>(), options);
   for (const char* kernel : {"pixel", "blocks"})
@@ -164,7 +157,7 @@ TEST_CASE_TEMPLATE("an instance renders as its asset's objects placed by hand", 
   instanced.assets.push_back(instanced.assets[0]);
   instanced.assets[1].objects.erase(instanced.assets[1].objects.begin());
   std::get<twinray::Instance<T>>(instanced.objects[2]).asset = 1;
-  RenderOptions options = quiet<T>();
+  RenderOptions options;  // test::render_with silences the log
   Image<T> a = test::render_with(instanced, view<T>(), options, Backend::Cpu);
   Image<T> b = test::render_with(flat, view<T>(), options, Backend::Cpu);
   const std::pair<double, size_t> d = image_difference(a, b, 1e-4);
@@ -186,7 +179,7 @@ TEST_CASE(
   const int m = green.add_material(g);
   for (auto& o : green.objects)
     if (auto* in = std::get_if<twinray::Instance<float>>(&o)) in->material = m;
-  RenderOptions options = quiet<float>();
+  RenderOptions options;
   options.output = twinray::Output::ObjectIndex;
   Image<float> ids = test::render_with(own, view<float>(), options, Backend::Cpu);
   std::vector<size_t> count(5, 0);
