@@ -77,8 +77,12 @@ void with_features(unsigned needed, F&& f) {
 
 // Ray queries (device/ray_query.h) specialize the bits that remove the most of their
 // work: a scene without triangles, planes or masks runs none of that code. 2^3
-// instantiations per precision, apart from the renderer's.
-constexpr unsigned kQuerySpecializedFeatures = TR_F_TRIANGLES | TR_F_PLANES | TR_F_MASKS;
+// instantiations per precision, apart from the renderer's; the macro chooses others,
+// as TWINRAY_CPU_SPECIALIZED_FEATURES does for the renderer.
+#ifndef TWINRAY_CPU_QUERY_SPECIALIZED_FEATURES
+#define TWINRAY_CPU_QUERY_SPECIALIZED_FEATURES (TR_F_TRIANGLES | TR_F_PLANES | TR_F_MASKS)
+#endif
+constexpr unsigned kQuerySpecializedFeatures = TWINRAY_CPU_QUERY_SPECIALIZED_FEATURES;
 
 // Calls chunk(begin, end) for consecutive ranges of at most kQueryChunk of the n rays,
 // handed out to the threads. Each ray's answer is its own, so the split changes none.
