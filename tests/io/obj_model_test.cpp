@@ -230,6 +230,76 @@ TEST_CASE("scene files: OBJ materials, the material override, normals and crease
   CHECK(overridden.scene.textures.empty());
 }
 
+TEST_CASE("scene files: an OBJ file named by several objects and assets is read once") {
+  TempDir temp("twinray-obj-once-test");
+  const std::string dir = temp.str();
+  write(dir + "/look.obj", kObj);
+  write(dir + "/look.mtl", kMtl);  // red.png is missing: one warning per read of the file
+  write(dir + "/scene.json", R"({ "twinray": 1, "image": { "width": 4, "height": 3 },
+      "camera": { "projection": "perspective", "position": [0, 0, 5], "look_at": [0, 0, 0],
+                  "up": [0, 1, 0] },
+      "materials": { "m": {} },
+      "assets": { "a": [ { "type": "mesh", "obj": "look.obj" },
+                         { "type": "mesh", "obj": "look.obj", "material": "m" } ] },
+      "objects": [
+        { "type": "mesh", "obj": "look.obj" },
+        { "type": "mesh", "obj": "./look.obj", "transform": { "translate": [5, 0, 0] } },
+        { "type": "mesh", "obj": "look.obj", "material": "m", "normals": "flat" },
+        { "type": "instance", "asset": "a" } ] })");
+  io::SceneFile<float> f = io::load_scene<float>(dir + "/scene.json");
+  // One read with materials: its warning once, its two materials, the default one (m)
+  // and its texture (none: red.png is missing) added once.
+  CHECK(f.warnings.size() == 1);
+  CHECK(f.scene.materials.size() == 3);
+  CHECK(f.material_names == std::vector<std::string>{"m", "look.obj:red", "look.obj:shiny"});
+  write(dir + "/single.json", R"({ "twinray": 1, "image": { "width": 4, "height": 3 },
+      "camera": { "projection": "perspective", "position": [0, 0, 5], "look_at": [0, 0, 0],
+                  "up": [0, 1, 0] },
+      "objects": [ { "type": "mesh", "obj": "look.obj" } ] })");
+  io::SceneFile<float> one = io::load_scene<float>(dir + "/single.json");
+  const auto& alone = std::get<Mesh<float>>(one.scene.objects[0]);
+  REQUIRE(f.scene.objects.size() == 4);
+  const auto& first = std::get<Mesh<float>>(f.scene.objects[0]);
+  const auto& moved = std::get<Mesh<float>>(f.scene.objects[1]);
+  const auto& flat = std::get<Mesh<float>>(f.scene.objects[2]);
+  // Each object is the mesh read alone, then placed and shaded as its own keys say.
+  // Materials by name: "m" comes first in the scene, so the indices are one higher.
+  auto names = [](const io::SceneFile<float>& file, const Mesh<float>& mesh) {
+    std::vector<std::string> out;
+    for (int m : mesh.triangle_materials) out.push_back(file.material_names.at(size_t(m)));
+    return out;
+  };
+  const std::vector<std::string> materials = names(one, alone);
+  CHECK(materials == std::vector<std::string>{"look.obj:red", "look.obj:red", "look.obj:shiny",
+                                              "look.obj:shiny"});
+  CHECK(first.vertices == alone.vertices);
+  CHECK(first.triangles == alone.triangles);
+  CHECK(names(f, first) == materials);
+  CHECK(first.normals == alone.normals);
+  CHECK(names(f, moved) == materials);
+  CHECK(moved.vertices[0] == alone.vertices[0] + glm::vec3(5, 0, 0));
+  CHECK(flat.triangles == alone.triangles);
+  CHECK(flat.triangle_materials.empty());
+  CHECK(flat.material == 0);
+  CHECK(flat.normal_triangles.empty());
+  REQUIRE(f.scene.assets.size() == 1);
+  REQUIRE(f.scene.assets[0].objects.size() == 2);
+  const auto& in_asset = std::get<Mesh<float>>(f.scene.assets[0].objects[0]);
+  const auto& in_asset_m = std::get<Mesh<float>>(f.scene.assets[0].objects[1]);
+  CHECK(in_asset.vertices == alone.vertices);
+  CHECK(names(f, in_asset) == materials);
+  CHECK(in_asset.normals == alone.normals);
+  CHECK(in_asset_m.material == 0);
+  CHECK(in_asset_m.normals == alone.normals);  // "file" normals: flat was another object's
+  // Every copy counts towards the scene's triangles.
+  io::SceneLimits limits;
+  limits.max_total_triangles = 4 * 5 - 1;
+  CHECK(refusal([&] { io::load_scene<float>(dir + "/scene.json", limits); }) ==
+        dir +
+            "/scene.json: objects[2].obj: the scene has more than 19 triangles in all (the "
+            "limit)");
+}
+
 // The public-domain spot model (Keenan Crane, CC0), when TWINRAY_TEST_MODELS_DIR holds it.
 TEST_CASE("spot: loads with its material, texture and uvs, and smooth normals are computed") {
   const std::string dir = TWINRAY_TEST_MODELS_DIR;

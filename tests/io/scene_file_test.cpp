@@ -3,8 +3,14 @@
 // and messages have the form `FILE: JSON.PATH: problem`.
 #include <doctest/doctest.h>
 
+#include <algorithm>
+#include <cstring>
 #include <string>
+#include <vector>
 
+#include <unistd.h>
+
+#include <twinray/core/process.hpp>
 #include <twinray/io/scene_json.hpp>
 
 #include <twinray/scene/demo_scene.hpp>
@@ -194,6 +200,30 @@ TEST_CASE("limits hold before the scene is built") {
   limits.max_objects = 0;
   CHECK(error_of([&] { twinray::io::parse_scene<float>(kSmall, "s.json", "", limits); }) ==
         "s.json: objects: 1 objects, more than the limit of 0");
+}
+
+TEST_CASE("the default limits follow the memory the process may use") {
+  using namespace twinray::io;
+  const long long memory = twinray::usable_memory_bytes();
+  REQUIRE(memory > 0);  // Linux reports its physical pages
+  CHECK(memory <= static_cast<long long>(::sysconf(_SC_PHYS_PAGES)) * ::sysconf(_SC_PAGE_SIZE));
+  const long long triangles = memory_triangle_limit();
+  CHECK(triangles == std::clamp(memory / kPeakBytesPerTriangle, 1ll << 24, (1ll << 31) - 1));
+  CHECK(memory_vertex_limit() == std::min(3 * triangles, (1ll << 31) - 1));
+  CHECK(memory_obj_file_limit() == std::max(256ll << 20, memory));
+  SceneLimits scene;
+  CHECK(scene.max_total_triangles == triangles);
+  CHECK(scene.max_mesh_vertices == memory_vertex_limit());
+  CHECK(scene.max_obj_file_bytes == memory_obj_file_limit());
+  ObjLimits obj;
+  CHECK(obj.max_triangles == triangles);
+  CHECK(obj.max_vertices == memory_vertex_limit());
+  CHECK(obj.max_file_bytes == memory_obj_file_limit());
+  // The process's peak resident memory is at least what it holds now.
+  std::vector<char> held(64 << 20);
+  std::memset(held.data(), 1, held.size());
+  CHECK(std::count(held.begin(), held.end(), 1) == static_cast<long long>(held.size()));
+  CHECK(twinray::peak_resident_bytes() >= static_cast<long long>(held.size()));
 }
 
 TEST_CASE("OBJ: faces triangulated, relative indices, and clear errors") {

@@ -42,6 +42,7 @@
 
 #include <twinray/core/error.hpp>
 #include <twinray/core/parallel.hpp>
+#include <twinray/core/process.hpp>
 #include <twinray/io/small_file.hpp>
 #include <twinray/scene/polygon.hpp>
 #include <twinray/scene/shapes.hpp>
@@ -49,11 +50,36 @@
 namespace twinray {
 namespace io {
 
+// The loaders' default limits follow the memory this process may use
+// (core/process.hpp, usable_memory_bytes): the most triangles a scene may hold is that
+// memory over kPeakBytesPerTriangle, the process's peak per triangle while an OBJ mesh
+// is read, packed and rendered in double, at most the 398 measured on PoCL for a mesh
+// with a normal and a texture coordinate per corner, in a process that also compiled
+// the OpenCL program (positions only: 165; float: 95; docs/models.md, "Large meshes",
+// measured with bench/large_mesh.sh). A vertex
+// record costs a tenth as much, so a mesh may hold three per triangle (a triangle
+// soup). The OBJ text is streamed, never held whole; its limit, the memory itself,
+// only stops a load that cannot be a mesh this machine can hold.
+constexpr long long kPeakBytesPerTriangle = 400;
+
+inline long long memory_triangle_limit() {
+  static const long long memory = usable_memory_bytes();
+  const long long floor = 1ll << 24, ceiling = (1ll << 31) - 1;  // indices are int
+  return memory > 0 ? std::clamp(memory / kPeakBytesPerTriangle, floor, ceiling) : floor;
+}
+inline long long memory_vertex_limit() {
+  return std::min(3 * memory_triangle_limit(), (1ll << 31) - 1);
+}
+inline long long memory_obj_file_limit() {
+  static const long long memory = usable_memory_bytes();
+  return std::max(256ll << 20, memory);
+}
+
 struct ObjLimits {
-  long long max_file_bytes = 256ll << 20;  // 256 MiB of text
-  long long max_vertices = 1ll << 24;      // 16 Mi records of each kind: v, vt, vn
-  long long max_triangles = 1ll << 24;     // 16 Mi triangles after triangulation
-  int max_face_corners = 1 << 16;          // corners of one face
+  long long max_file_bytes = memory_obj_file_limit();  // bytes of text
+  long long max_vertices = memory_vertex_limit();      // records of each kind: v, vt, vn
+  long long max_triangles = memory_triangle_limit();   // triangles after triangulation
+  int max_face_corners = 1 << 16;                      // corners of one face
   // The text is parsed in pieces of about this many bytes, in parallel. The mesh does
   // not depend on it; tests make it small to cut files at every line.
   long long chunk_bytes = 4ll << 20;

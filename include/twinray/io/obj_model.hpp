@@ -242,7 +242,8 @@ ObjModel<T> load_obj_model(const std::string& path, const ObjModelOptions& optio
     std::string file = detail::resolve_beside(path, lib.name);
     std::string text;
     try {
-      text = detail::read_small_file(file, options.limits.max_file_bytes, "an MTL file");
+      text = detail::read_small_file(file, std::min(options.limits.max_file_bytes, 256ll << 20),
+                                     "an MTL file");
     } catch (const Error& e) {
       warn(detail::obj_where(path, lib.line) + "mtllib " + lib.name + ": " + e.what() +
            "; its materials are not used");

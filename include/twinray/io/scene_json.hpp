@@ -21,6 +21,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <string>
 #include <utility>
@@ -51,13 +52,14 @@ constexpr int kSceneFormatVersion = 1;
 // The loader's limits. max_nesting and max_json_values (JsonLimits, io/json_read.hpp)
 // hold while the JSON text is parsed.
 struct SceneLimits : JsonLimits {
-  long long max_file_bytes = 64ll << 20;      // the JSON text
-  long long max_objects = 1ll << 20;          // entries of `objects`
-  long long max_materials = 1ll << 16;        // named and inline materials
-  long long max_lights = 1ll << 16;           // entries of `lights`
-  long long max_mesh_vertices = 1ll << 24;    // per mesh, inline or OBJ
-  long long max_total_triangles = 1ll << 24;  // triangles of all meshes and triangles
-  long long max_obj_file_bytes = 256ll << 20;
+  long long max_file_bytes = 64ll << 20;  // the JSON text
+  long long max_objects = 1ll << 20;      // entries of `objects`
+  long long max_materials = 1ll << 16;    // named and inline materials
+  long long max_lights = 1ll << 16;       // entries of `lights`
+  // These three follow the machine's memory (io/obj_mesh.hpp, memory_triangle_limit).
+  long long max_mesh_vertices = memory_vertex_limit();      // per mesh, inline or OBJ
+  long long max_total_triangles = memory_triangle_limit();  // of all meshes and triangles
+  long long max_obj_file_bytes = memory_obj_file_limit();
   // Not a limit but a policy of the same loads: a missing or unreadable .mtl or
   // texture file, or an unknown `usemtl` name, is an error instead of a warning.
   bool strict = false;
@@ -133,6 +135,7 @@ class SceneReader : public JsonReader<T> {
     if (const Json* r = optional(root, "render")) read_render(*r, out.options);
     if (const Json* m = optional(root, "materials")) read_materials(*m, out);
     if (const Json* l = optional(root, "lights")) read_lights(*l, out.scene);
+    count_obj_uses(root);
     if (const Json* a = optional(root, "assets")) read_assets(*a, out);
     if (const Json* o = optional(root, "objects")) read_objects(*o, out);
     if (const Json* a = optional(root, "animation")) {
@@ -611,13 +614,36 @@ class SceneReader : public JsonReader<T> {
     std::string name = string(obj, opath);
     if (name.empty()) fail(opath, "must name an .obj file");
     const std::string file = beside_scene(name);
+    const bool overridden = optional(o, "material") != nullptr;
+    // A file named again is not read again: its mesh (and, unless overridden, the
+    // materials adopted from it) comes from the first read, moved out at its last use.
+    const std::string key = obj_key(file, overridden);
+    auto uses = obj_uses_.find(key);
+    if (auto kept = obj_meshes_.find(key); kept != obj_meshes_.end()) {
+      count_triangles(static_cast<long long>(kept->second.triangles.size()), opath);
+      const bool last = uses == obj_uses_.end() || --uses->second <= 0;
+      mesh = last ? std::move(kept->second) : kept->second;
+      if (last) obj_meshes_.erase(kept);
+      if (overridden) mesh.material = material_ref(o, path, out);
+      return;
+    }
+    read_obj_file(o, path, file, name, overridden, out, mesh);
+    if (uses != obj_uses_.end() && --uses->second > 0) {
+      Mesh<T> kept = mesh;
+      if (overridden) kept.material = -1;
+      obj_meshes_.emplace(key, std::move(kept));
+    }
+  }
+
+  void read_obj_file(const Json& o, const std::string& path, const std::string& file,
+                     const std::string& name, bool overridden, SceneFile<T>& out, Mesh<T>& mesh) {
+    const std::string opath = key_path(path, "obj");
     ObjModelOptions options;
     options.limits.max_file_bytes = limits_.max_obj_file_bytes;
     options.limits.max_vertices = limits_.max_mesh_vertices;
     options.limits.max_triangles = limits_.max_total_triangles - total_triangles_;
     options.strict = limits_.strict;
     // A `material` key overrides the file's materials: their files are not read.
-    const bool overridden = optional(o, "material") != nullptr;
     options.materials = !overridden;
     ObjModel<T> model;
     try {
@@ -684,11 +710,42 @@ class SceneReader : public JsonReader<T> {
     return name[0] == '/' || base_dir_.empty() ? name : base_dir_ + "/" + name;
   }
 
+  // An OBJ file read with or without its materials, by the file it is (two spellings
+  // of one path are one key).
+  static std::string obj_key(const std::string& file, bool overridden) {
+    std::error_code ec;
+    std::filesystem::path canonical = std::filesystem::weakly_canonical(file, ec);
+    return (ec ? file : canonical.string()) + (overridden ? "\n" : "\n+materials");
+  }
+
+  // How many objects and assets name each OBJ file, so that a file named more than once
+  // is kept after its first read, and only until its last use. Entries that are not
+  // well formed are skipped here; reading them reports the error.
+  void count_obj_uses(const Json& root) {
+    auto count = [&](const Json& o) {
+      if (!o.is_object()) return;
+      auto obj = o.find("obj");
+      if (obj == o.end() || !obj->is_string() || obj->template get<std::string>().empty()) return;
+      ++obj_uses_[obj_key(beside_scene(obj->template get<std::string>()), o.contains("material"))];
+    };
+    if (const Json* objects = optional(root, "objects"); objects && objects->is_array())
+      for (const Json& o : *objects) count(o);
+    if (const Json* assets = optional(root, "assets"); assets && assets->is_object())
+      for (const auto& [name, a] : assets->items()) {
+        if (a.is_array())
+          for (const Json& o : a) count(o);
+        else
+          count(a);
+      }
+  }
+
   std::string base_dir_;
   const SceneLimits& limits_;
   std::map<std::string, int> names_;
   std::map<std::string, int> asset_names_;
   long long total_triangles_ = 0;
+  std::map<std::string, int> obj_uses_;        // obj_key -> objects and assets naming it
+  std::map<std::string, Mesh<T>> obj_meshes_;  // obj_key -> mesh of a file named again
 };
 
 inline std::string parent_folder(const std::string& path) {
