@@ -3,17 +3,17 @@
 // loader, the best wall time of --rounds loads and the peak memory the load added, and
 // for twinray that peak over the bytes of the mesh it keeps.
 //
-//   obj_load_bench [--triangles N] [--rounds R] [--folder DIR] [FILE.obj ...]
+//   obj_load_bench [--triangles N] [--rounds R] [--folder DIR] [--keep] [FILE.obj ...]
 //
 // Without files it writes two of about N triangles (default 1e6) into DIR (default
 // the system's temporary folder): a grid with positions only (`f a b c`), and the
-// same grid with texture coordinates and normals (`f a/a/a b/b/b c/c/c`). Each load
-// runs in a child process of its own (fork), so that one loader's freed memory cannot
-// lower the next one's peak; the peak is the child's resident high-water mark
-// (/proc/self/status VmHWM, reset through /proc/self/clear_refs) less its resident size
-// before the load. The files are read once first, so every loader finds them in the
-// page cache. The comparators read floats and check less: tinyobjloader and fast_obj
-// take `1x` as 1 and drop faces with bad indices; none refuses NaN.
+// same grid with texture coordinates and normals (`f a/a/a b/b/b c/c/c`), removed at
+// the end unless --keep is given. Each load runs in a child process of its own
+// (fork), so that one loader's freed memory cannot lower the next one's peak; the
+// peak is the child's resident high-water mark (/proc/self/status VmHWM, reset
+// through /proc/self/clear_refs) less its resident size before the load. The files are read once
+// first, so every loader finds them in the page cache. The comparators read floats and check less:
+// tinyobjloader and fast_obj take `1x` as 1 and drop faces with bad indices; none refuses NaN.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -153,19 +153,22 @@ int main(int argc, char** argv) {
   int rounds = 3;
   std::string folder = std::filesystem::temp_directory_path().string();
   std::vector<std::string> files;
+  bool keep = false;  // leave the written files in the folder (their names go to stderr)
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
     if (a == "--triangles" && i + 1 < argc)
-      triangles = std::atoll(argv[++i]);
+      triangles = static_cast<long long>(std::atof(argv[++i]));  // 4e6 or 4000000
     else if (a == "--rounds" && i + 1 < argc)
       rounds = std::max(1, std::atoi(argv[++i]));
     else if (a == "--folder" && i + 1 < argc)
       folder = argv[++i];
+    else if (a == "--keep")
+      keep = true;
     else if (!a.empty() && a[0] != '-')
       files.push_back(a);
     else {
-      std::cerr
-          << "usage: obj_load_bench [--triangles N] [--rounds R] [--folder DIR] [FILE.obj ...]\n";
+      std::cerr << "usage: obj_load_bench [--triangles N] [--rounds R] [--folder DIR] [--keep] "
+                   "[FILE.obj ...]\n";
       return 2;
     }
   }
@@ -260,6 +263,11 @@ int main(int argc, char** argv) {
     });
 #endif
   }
-  for (const std::string& path : made) std::filesystem::remove(path);
+  for (const std::string& path : made) {
+    if (keep)
+      std::cerr << "kept " << path << "\n";
+    else
+      std::filesystem::remove(path);
+  }
   return 0;
 }

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstdio>
 #include <iomanip>
 #include <iostream>
@@ -15,6 +16,7 @@
 #include <unistd.h>
 
 #include <twinray/scene/validate.hpp>
+#include <twinray/core/process.hpp>
 #include <twinray/io/atomic_file.hpp>
 #include <twinray/io/pfm.hpp>
 #ifdef TWINRAY_WITH_OPENEXR
@@ -60,6 +62,19 @@ CLI::Validator terms_validator() {
         return "";
       },
       "TERMS");
+}
+// A CLI11 check for the limit options: parse_amount's.
+CLI::Validator amount_validator(const std::string& option, bool size) {
+  return CLI::Validator(
+      [option, size](std::string& value) -> std::string {
+        try {
+          parse_amount(value, option, size);
+        } catch (const Error& e) {
+          return e.what();
+        }
+        return "";
+      },
+      size ? "BYTES" : "N");
 }
 }  // namespace
 
@@ -107,6 +122,15 @@ void add_shared_options(CLI::App& app, SharedOptions& o, unsigned extras) {
   app.add_flag("--strict", o.strict,
                "a missing or unreadable .mtl or texture file, or an unknown usemtl name, is an "
                "error (exit status 2) instead of a warning");
+  app.add_option("--max-triangles", o.max_triangles,
+                 "the most triangles a scene may hold (default: as many as this machine's "
+                 "memory holds, " +
+                     std::to_string(twinray::io::memory_triangle_limit()) + ")")
+      ->check(amount_validator("--max-triangles", false));
+  app.add_option("--max-obj-size", o.max_obj_bytes,
+                 "the largest .obj file read, in bytes or with K, M, G, T (default: this "
+                 "machine's memory)")
+      ->check(amount_validator("--max-obj-size", true));
   app.add_option("--sampler", o.sampler,
                  "sub-pixel sample positions: grid, stratified (jittered) or r2 "
                  "(low-discrepancy)")
@@ -127,6 +151,60 @@ twinray::Backend parse_backend(const std::string& name) {
   if (name == "opencl") return twinray::Backend::OpenCL;
   if (name == "auto") return twinray::Backend::Auto;
   usage_error("--backend: must be cpu, opencl or auto, got \"" + name + "\"");
+}
+
+long long parse_amount(const std::string& text, const std::string& option, bool size) {
+  auto refuse = [&](const std::string& why) -> long long {
+    usage_error(option + ": " + why + ", got \"" + text + "\"");
+  };
+  size_t digits = 0;
+  while (digits < text.size() &&
+         (std::isdigit(static_cast<unsigned char>(text[digits])) || text[digits] == '.' ||
+          ((text[digits] == 'e' || text[digits] == 'E') && digits > 0)))
+    ++digits;
+  std::string unit = text.substr(digits);
+  double scale = 1.0;
+  if (!unit.empty()) {
+    const std::string units = "KMGT";
+    const size_t power = units.find(static_cast<char>(std::toupper(unit[0])));
+    if (!size || power == std::string::npos || !(unit.size() == 1 || unit.substr(1) == "iB"))
+      return refuse(size ? "must be a number of bytes, optionally with K, M, G or T"
+                         : "must be a whole number such as 50000000 or 5e7");
+    scale = std::ldexp(1.0, 10 * static_cast<int>(power + 1));
+  }
+  double value = 0.0;
+  size_t used = 0;
+  try {
+    value = std::stod(text.substr(0, digits), &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (digits == 0 || used != digits)
+    return refuse(size ? "must be a number of bytes, optionally with K, M, G or T"
+                       : "must be a whole number such as 50000000 or 5e7");
+  value *= scale;
+  if (!(value >= 1.0 && value < 9.2e18) || value != std::floor(value))
+    return refuse("must be a whole number from 1 to 2^63");
+  return static_cast<long long>(value);
+}
+
+twinray::io::SceneLimits scene_limits(const SharedOptions& o) {
+  twinray::io::SceneLimits limits;
+  limits.strict = o.strict;
+  if (!o.max_triangles.empty()) {
+    // Mesh indices are int: no limit passes 2^31 - 1 (io/obj_mesh.hpp).
+    const long long n = parse_amount(o.max_triangles, "--max-triangles", false);
+    if (n > (1ll << 31) - 1)
+      usage_error(
+          "--max-triangles: at most 2147483647 (2^31 - 1, mesh indices are 32-bit), "
+          "got " +
+          o.max_triangles);
+    limits.max_total_triangles = n;
+    limits.max_mesh_vertices = std::min(3 * n, (1ll << 31) - 1);
+  }
+  if (!o.max_obj_bytes.empty())
+    limits.max_obj_file_bytes = parse_amount(o.max_obj_bytes, "--max-obj-size", true);
+  return limits;
 }
 
 unsigned parse_terms(const std::string& list) {
@@ -157,7 +235,7 @@ std::string scene_arg_text(const std::string& scene) {
 
 template <class T>
 twinray::io::SceneFile<T> parse_scene_arg(const std::string& scene, const std::string& text,
-                                          bool strict = false) {
+                                          const twinray::io::SceneLimits& limits = {}) {
   if (scene == "demo") {
     twinray::demo::DemoSetup<T> d = twinray::demo::make_demo_scene<T>();
     twinray::io::SceneFile<T> f;
@@ -167,8 +245,6 @@ twinray::io::SceneFile<T> parse_scene_arg(const std::string& scene, const std::s
     f.path = "demo";
     return f;
   }
-  twinray::io::SceneLimits limits;
-  limits.strict = strict;
   return twinray::io::parse_scene<T>(text, scene, twinray::io::scene_folder(scene), limits);
 }
 
@@ -231,7 +307,7 @@ void apply_shared_options(twinray::io::SceneFile<T>& f, const SharedOptions& o) 
 template <class T>
 twinray::io::SceneFile<T> prepare_scene(const std::string& scene, const std::string& text,
                                         const SharedOptions& o) {
-  twinray::io::SceneFile<T> f = parse_scene_arg<T>(scene, text, o.strict);
+  twinray::io::SceneFile<T> f = parse_scene_arg<T>(scene, text, scene_limits(o));
   for (const std::string& warning : f.warnings)
     std::fprintf(stderr, "twinray: warning: %s\n", warning.c_str());
   apply_shared_options(f, o);
@@ -517,16 +593,18 @@ void Progress::draw_locked() {
 
 std::string summary_line(const std::string& output, int width, int height, int spp,
                          const std::string& precision, const std::string& what,
-                         const twinray::RenderInfo& info, double total_ms) {
+                         const twinray::RenderInfo& info, double load_ms, double total_ms) {
   std::ostringstream s;
   s << std::fixed << std::setprecision(1);
   s << output << ": " << what << ", " << width << "x" << height << ", " << spp << " spp, "
     << precision << ", backend " << twinray::to_string(info.backend) << " (" << info.device
-    << "), render " << info.render_ms << " ms";
+    << "), load " << load_ms << " ms, pack " << info.pack_ms << " ms, render " << info.render_ms
+    << " ms";
   if (info.backend == twinray::Backend::OpenCL)
     s << ", program " << (info.program_cached ? "cached " : "build ") << info.build_ms << " ms"
       << ", kernel " << info.kernel;
-  s << ", total " << total_ms << " ms";
+  s << ", total " << total_ms << " ms, peak "
+    << static_cast<double>(twinray::peak_resident_bytes()) / (1 << 20) << " MiB";
   return s.str();
 }
 

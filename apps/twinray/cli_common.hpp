@@ -60,6 +60,8 @@ struct SharedOptions {
   std::string aov;    // "", depth, normal, shading-normal, uv, object
   bool quiet = false;
   bool strict = false;             // a missing .mtl or texture file is an error, not a warning
+  std::string max_triangles;       // --max-triangles N; "": follow the machine's memory
+  std::string max_obj_bytes;       // --max-obj-size BYTES; "": follow the machine's memory
   std::string sampler;             // "": the scene's; else grid, stratified, r2
   int seed = -1;                   // -1: the scene's
   int adaptive_spp = 0;            // --adaptive N; 0: the scene's
@@ -75,6 +77,12 @@ enum SharedOptionExtras : unsigned {
 void add_shared_options(CLI::App& app, SharedOptions& options, unsigned extras = 0);
 
 twinray::Backend parse_backend(const std::string& name);
+// A count or a size as the limit options take it: digits, or a decimal with an exponent
+// (5e7), and for sizes a binary suffix K, M, G or T (with or without "iB"); throws
+// InvalidInput naming `option` unless it is a whole number in [1, 2^63).
+long long parse_amount(const std::string& text, const std::string& option, bool size);
+// The scene loader's limits: the machine's memory's, or the options'.
+twinray::io::SceneLimits scene_limits(const SharedOptions& options);
 // "ambient,diffuse" -> kAmbient | kDiffuse; throws InvalidInput naming --terms.
 unsigned parse_terms(const std::string& list);
 
@@ -207,9 +215,9 @@ class Progress {
 };
 
 // The one summary line of a render (docs/command-line.md): output, size, spp, precision, backend,
-// device, times.
+// device, times (load: reading the scene and its files), the process's peak memory.
 std::string summary_line(const std::string& output, int width, int height, int spp,
                          const std::string& precision, const std::string& what,
-                         const twinray::RenderInfo& info, double total_ms);
+                         const twinray::RenderInfo& info, double load_ms, double total_ms);
 
 }  // namespace twinray_cli

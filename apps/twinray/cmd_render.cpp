@@ -65,9 +65,12 @@ int run_render(const RenderArgs& a) {
   return with_precision(a.shared, [&](auto zero) {
     using T = decltype(zero);
     twinray::io::SceneFile<T> f;
+    double load_ms = 0;
     cluster::agree(
         [&] {
           f = prepare_scene<T>(a.scene, text, a.shared);
+          load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                        .count();
           return pixels_key(f, a.shared.precision) + a.shared.aov;
         },
         "the scene or the options that decide the pixels");
@@ -165,8 +168,8 @@ int run_render(const RenderArgs& a) {
     double total_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     int spp = f.options.output == twinray::Output::Shaded ? f.options.spp : 1;
-    std::string line =
-        summary_line(a.output, width, height, spp, a.shared.precision, what, info, total_ms);
+    std::string line = summary_line(a.output, width, height, spp, a.shared.precision, what, info,
+                                    load_ms, total_ms);
     std::cout << line << (ranks.empty() ? "" : ", " + ranks) << std::endl;
     return kExitOk;
   });

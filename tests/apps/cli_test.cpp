@@ -309,7 +309,8 @@ TEST_CASE("status 0: render writes the image and prints one summary line") {
   // One line: output, size, spp, precision, backend, device, time.
   CHECK(std::count(r.out.begin(), r.out.end(), '\n') == 1);
   CHECK(contains(r.out, "demo.png: shaded, 64x48, 2 spp, float, backend cpu ("));
-  CHECK(contains(r.out, " ms"));
+  for (const char* part : {"), load ", " ms, pack ", " ms, render ", " ms, total ", " MiB\n"})
+    CHECK_MESSAGE(contains(r.out, part), part);
   // Not a terminal: no progress bar on stderr.
   CHECK(r.err.find('\r') == std::string::npos);
 
@@ -389,6 +390,16 @@ TEST_CASE("status 2: bad command lines, refused before any work") {
       {{"render", "demo", "-o", "x.png", "--threads", "0"}, "--threads"},
       {{"render", "demo", "-o", "x.png", "--width", "65536", "--height", "65536"},
        "is more than the limit of"},
+      {{"render", "demo", "-o", "x.png", "--max-triangles", "0"},
+       "--max-triangles: must be a whole number from 1 to 2^63, got \"0\""},
+      {{"render", "demo", "-o", "x.png", "--max-triangles", "2.5"}, "whole number"},
+      {{"render", "demo", "-o", "x.png", "--max-triangles", "5M"},
+       "--max-triangles: must be a whole number such as 50000000 or 5e7, got \"5M\""},
+      {{"render", "demo", "-o", "x.png", "--max-triangles", "1e10"},
+       "--max-triangles: at most 2147483647"},
+      {{"render", "demo", "-o", "x.png", "--max-obj-size", "4X"},
+       "--max-obj-size: must be a number of bytes, optionally with K, M, G or T, got \"4X\""},
+      {{"render", "demo", "-o", "x.png", "--max-obj-size", "-1"}, "--max-obj-size"},
   };
   for (const Case& c : cases) {
     std::vector<std::string> args = c.args;
@@ -1001,6 +1012,38 @@ TEST_CASE("command-line options override the scene file") {
                    "--max-depth", "1", "--no-shadows"},
                   dir);
   CHECK_MESSAGE(r.status == 0, r.err);
+}
+
+TEST_CASE("--max-triangles and --max-obj-size set the loader's limits") {
+  std::string dir = fresh_folder(kWork, "limits");
+  write_file(dir + "/s.json", kGoodScene);  // 3 triangles
+  Result r = run_twinray(
+      {"render", "s.json", "-o", "a.pfm", "--backend", "cpu", "--max-triangles", "2"}, dir);
+  CHECK(r.status == 2);
+  CHECK(contains(r.err,
+                 "s.json: objects[3].triangles: the scene has more than 2 triangles in "
+                 "all (the limit)"));
+  CHECK(listing(dir) == std::vector<std::string>{"s.json"});
+  r = run_twinray({"render", "s.json", "-o", "a.pfm", "--backend", "cpu", "--max-triangles", "3"},
+                  dir);
+  CHECK_MESSAGE(r.status == 0, r.err);
+
+  // An OBJ file of 48 bytes: refused over 40 bytes, read under 1 KiB.
+  write_file(dir + "/t.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\n");
+  write_file(dir + "/o.json", edit(kInlineMesh, R"({ "type": "mesh", "obj": "t.obj" })"));
+  r = run_twinray({"render", "o.json", "-o", "b.pfm", "--backend", "cpu", "--max-obj-size", "40"},
+                  dir);
+  CHECK(r.status == 2);
+  CHECK(contains(r.err, "t.obj: an OBJ file is 48 bytes, more than the limit of 40"));
+  r = run_twinray({"render", "o.json", "-o", "b.pfm", "--backend", "cpu", "--max-obj-size", "1K"},
+                  dir);
+  CHECK_MESSAGE(r.status == 0, r.err);
+  r = run_twinray({"render", "o.json", "-o", "c.pfm", "--backend", "cpu", "--max-triangles", "2",
+                   "--max-obj-size", "1KiB"},
+                  dir);
+  CHECK(r.status == 2);
+  // The file may add what the scene's earlier objects left: 2 - 1 triangles.
+  CHECK(contains(r.err, "objects[3].obj: t.obj: 2 triangles, more than the limit of 1"));
 }
 
 namespace {
