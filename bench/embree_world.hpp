@@ -228,6 +228,35 @@ inline unsigned attach_triangles(RTCDevice device, RTCScene scene, const std::ve
   return id;
 }
 
+// Triangles and meshes flattened into one triangle geometry's buffers: vertices
+// (x y z ...), index triples and each triangle's material.
+struct TriangleSoup {
+  std::vector<float> verts;
+  std::vector<unsigned> tris;
+  std::vector<int> materials;
+
+  // Appends `o` if it is a triangle or a mesh; whether it was one.
+  bool add(const twinray::Object<float>& o) {
+    const unsigned base = static_cast<unsigned>(verts.size() / 3);
+    if (auto* t = std::get_if<twinray::Triangle<float>>(&o)) {
+      for (const auto& v : t->vertices) verts.insert(verts.end(), {v.x, v.y, v.z});
+      tris.insert(tris.end(), {base, base + 1, base + 2});
+      materials.push_back(t->material);
+      return true;
+    }
+    if (auto* m = std::get_if<twinray::Mesh<float>>(&o)) {
+      for (const auto& v : m->vertices) verts.insert(verts.end(), {v.x, v.y, v.z});
+      for (const auto& f : m->triangles) {
+        tris.insert(tris.end(),
+                    {base + unsigned(f[0]), base + unsigned(f[1]), base + unsigned(f[2])});
+        materials.push_back(m->material);
+      }
+      return true;
+    }
+    return false;
+  }
+};
+
 inline void build_world(World& w, const twinray_bench::BenchScene<float>& b,
                         SphereKind sphere_kind) {
   const auto& scene = b.scene;
@@ -235,29 +264,18 @@ inline void build_world(World& w, const twinray_bench::BenchScene<float>& b,
     w.materials.push_back({m.color, m.ka, m.kd, m.ks, m.shininess, m.glaze});
   for (const auto& l : scene.lights) w.lights.push_back({l.position, l.color * l.intensity});
   w.background = scene.background;
-  std::vector<float> verts;  // x y z
-  std::vector<unsigned> tris;
+  TriangleSoup soup;
   for (const auto& o : scene.objects) {
     if (auto* s = std::get_if<twinray::Sphere<float>>(&o)) {
       w.spheres.push_back({s->center, s->radius});
       w.sphere_material.push_back(s->material);
-    } else if (auto* t = std::get_if<twinray::Triangle<float>>(&o)) {
-      unsigned base = static_cast<unsigned>(verts.size() / 3);
-      for (const auto& v : t->vertices) verts.insert(verts.end(), {v.x, v.y, v.z});
-      tris.insert(tris.end(), {base, base + 1, base + 2});
-      w.tri_material.push_back(t->material);
     } else if (auto* p = std::get_if<twinray::Plane<float>>(&o)) {
       w.planes.push_back({p->point, glm::normalize(p->normal), p->material});
-    } else if (auto* m = std::get_if<twinray::Mesh<float>>(&o)) {
-      unsigned base = static_cast<unsigned>(verts.size() / 3);
-      for (const auto& v : m->vertices) verts.insert(verts.end(), {v.x, v.y, v.z});
-      for (const auto& f : m->triangles) {
-        tris.insert(tris.end(),
-                    {base + unsigned(f[0]), base + unsigned(f[1]), base + unsigned(f[2])});
-        w.tri_material.push_back(m->material);
-      }
+    } else {
+      soup.add(o);
     }
   }
+  w.tri_material = soup.materials;
   w.primitives =
       static_cast<long long>(w.sphere_material.size() + w.tri_material.size() + w.planes.size());
   w.scene = rtcNewScene(w.device);
@@ -265,32 +283,15 @@ inline void build_world(World& w, const twinray_bench::BenchScene<float>& b,
   // need their scene committed first); then an instance geometry per placement.
   auto a0 = std::chrono::steady_clock::now();
   for (const auto& asset : scene.assets) {
-    std::vector<float> av;
-    std::vector<unsigned> at;
-    std::vector<int> materials;
-    for (const auto& o : asset.objects) {
-      if (auto* t = std::get_if<twinray::Triangle<float>>(&o)) {
-        unsigned base = static_cast<unsigned>(av.size() / 3);
-        for (const auto& v : t->vertices) av.insert(av.end(), {v.x, v.y, v.z});
-        at.insert(at.end(), {base, base + 1, base + 2});
-        materials.push_back(t->material);
-      } else if (auto* m = std::get_if<twinray::Mesh<float>>(&o)) {
-        unsigned base = static_cast<unsigned>(av.size() / 3);
-        for (const auto& v : m->vertices) av.insert(av.end(), {v.x, v.y, v.z});
-        for (const auto& f : m->triangles) {
-          at.insert(at.end(),
-                    {base + unsigned(f[0]), base + unsigned(f[1]), base + unsigned(f[2])});
-          materials.push_back(m->material);
-        }
-      } else {
+    TriangleSoup asset_soup;
+    for (const auto& o : asset.objects)
+      if (!asset_soup.add(o))
         throw std::runtime_error("embree_bench: assets of triangles and meshes only");
-      }
-    }
     RTCScene child = rtcNewScene(w.device);
-    attach_triangles(w.device, child, av, at);
+    attach_triangles(w.device, child, asset_soup.verts, asset_soup.tris);
     rtcCommitScene(child);
     w.asset_scenes.push_back(child);
-    w.asset_tri_material.push_back(std::move(materials));
+    w.asset_tri_material.push_back(std::move(asset_soup.materials));
   }
   w.assets_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - a0).count();
@@ -333,7 +334,7 @@ inline void build_world(World& w, const twinray_bench::BenchScene<float>& b,
     w.sphere_geom = rtcAttachGeometry(w.scene, g);
     rtcReleaseGeometry(g);
   }
-  if (!tris.empty()) w.tri_geom = attach_triangles(w.device, w.scene, verts, tris);
+  if (!soup.tris.empty()) w.tri_geom = attach_triangles(w.device, w.scene, soup.verts, soup.tris);
 }
 
 // The analytic floor: closest plane hit in (tnear, tfar), or -1.
