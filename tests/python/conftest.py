@@ -19,6 +19,31 @@ def opencl_ok() -> bool:
 
 needs_opencl = pytest.mark.skipif(not opencl_ok(), reason="no OpenCL device here")
 
+PRECISIONS = ["float", "double"]
+
+
+def small_camera(width=96, height=72):
+    """The camera of the small scenes built in code (and of their JSON twins)."""
+    return twinray.Camera(position=(0, -1.5, 5), look_at=(0, 0, -1), up=(0, -1, 0),
+                          viewplane_height=3.0, width=width, height=height)
+
+
+def assert_code_equals_file(scene, path, precision):
+    """`scene`, built in code, renders the same bits as the scene file `path` (CPU, 2 spp),
+    and the image is not black."""
+    from_code = twinray.Tracer(scene, backend="cpu", precision=precision).render(spp=2)
+    from_file = twinray.Tracer(twinray.Scene.load(path), backend="cpu",
+                               precision=precision).render(spp=2)
+    assert np.array_equal(from_code, from_file)
+    assert from_code.max() > 0
+
+
+def assert_backends_render_alike(scene, precision):
+    """The CPU and OpenCL tracers render `scene` with the same bits (2 spp)."""
+    cpu = twinray.Tracer(scene, backend="cpu", precision=precision).render(spp=2)
+    ocl = twinray.Tracer(scene, backend="opencl", precision=precision).render(spp=2)
+    assert np.array_equal(cpu, ocl)
+
 
 def cli() -> str:
     """The twinray command CTest passes in (TWINRAY_CLI), or the default build's."""

@@ -8,15 +8,9 @@ import numpy as np
 import pytest
 
 import twinray
-from conftest import SCENES, needs_opencl
-
-PRECISIONS = ["float", "double"]
+from conftest import (PRECISIONS, SCENES, assert_backends_render_alike,
+                      assert_code_equals_file, needs_opencl, small_camera)
 SKY = SCENES / "sky.hdr"
-
-
-def small_camera(width=96, height=72):
-    return twinray.Camera(position=(0, -1.5, 5), look_at=(0, 0, -1), up=(0, -1, 0),
-                          viewplane_height=3.0, width=width, height=height)
 
 
 def scene_in_code():
@@ -67,20 +61,14 @@ def test_scene_files_bring_their_area_lights_and_environment():
 
 @pytest.mark.parametrize("precision", PRECISIONS)
 def test_code_built_scene_equals_its_file(tmp_path, precision):
-    from_code = twinray.Tracer(scene_in_code(), backend="cpu", precision=precision).render(spp=2)
-    from_file = twinray.Tracer(twinray.Scene.load(scene_as_json(tmp_path)), backend="cpu",
-                               precision=precision).render(spp=2)
-    assert np.array_equal(from_code, from_file)
-    assert from_code.max() > 0
+    assert_code_equals_file(scene_in_code(), scene_as_json(tmp_path), precision)
 
 
 @needs_opencl
 @pytest.mark.parametrize("precision", PRECISIONS)
 def test_cpu_and_opencl_equal(precision):
     scene = scene_in_code()
-    cpu = twinray.Tracer(scene, backend="cpu", precision=precision).render(spp=2)
-    ocl = twinray.Tracer(scene, backend="opencl", precision=precision).render(spp=2)
-    assert np.array_equal(cpu, ocl)
+    assert_backends_render_alike(scene, precision)
 
 
 def test_the_environment_is_seen_and_can_be_removed():

@@ -5,10 +5,9 @@ import numpy as np
 import pytest
 
 import twinray
-from conftest import SCENES, needs_opencl, random_rays, torus
+from conftest import PRECISIONS, SCENES, needs_opencl, random_rays, torus
 
 pytestmark = needs_opencl
-PRECISIONS = ["float", "double"]
 AOVS = ["shaded", "depth", "normal", "shading_normal", "uv", "object"]
 
 
