@@ -15,6 +15,7 @@
 #include <twinray/scene/transform.hpp>
 
 #include "backend/parity_util.hpp"
+#include "support/meshes.hpp"
 
 namespace {
 
@@ -35,30 +36,6 @@ using twinray::Transform;
 template <class T>
 using vec3 = glm::vec<3, T>;
 
-// A closed UV sphere of radius 1 as a mesh: `rings` x `segments` quads in two triangles
-// each; only the rows of rings [ring_begin, ring_end) (the whole sphere by default).
-template <class T>
-Mesh<T> uv_sphere(int rings, int segments, int material, int ring_begin = 0, int ring_end = -1) {
-  if (ring_end < 0) ring_end = rings;
-  Mesh<T> m;
-  m.material = material;
-  const double pi = 3.14159265358979323846;
-  for (int r = 0; r <= rings; ++r)
-    for (int s = 0; s < segments; ++s) {
-      double theta = pi * r / rings, phi = 2 * pi * s / segments;
-      m.vertices.push_back(vec3<T>(T(std::sin(theta) * std::cos(phi)), T(std::cos(theta)),
-                                   T(std::sin(theta) * std::sin(phi))));
-    }
-  for (int r = ring_begin; r < ring_end; ++r)
-    for (int s = 0; s < segments; ++s) {
-      int a = r * segments + s, b = r * segments + (s + 1) % segments;
-      int c = a + segments, d = b + segments;
-      m.triangles.push_back({a, c, b});
-      m.triangles.push_back({b, c, d});
-    }
-  return m;
-}
-
 // The test scene: a floor plane, a light, and an asset (a sphere and a mesh) placed
 // three times: moved, rotated and scaled unevenly, and mirrored.
 template <class T>
@@ -76,7 +53,8 @@ Scene<T> three_placements(int asset_material = -1) {
   Asset<T> asset;
   asset.name = "pair";
   asset.objects.push_back(Object<T>(Sphere<T>{vec3<T>(0.6, 0, 0), T(0.4), r}));
-  Mesh<T> ball = uv_sphere<T>(12, 16, b);
+  Mesh<T> ball = test_support::uv_sphere<T>({0, 0, 0}, 1.0, 12, 16);
+  ball.material = b;
   twinray::place(ball,
                  Transform::scale_rotate_translate({0.5, 0.5, 0.5}, {0, 1, 0}, 0, {-0.5, 0, 0}));
   asset.objects.push_back(Object<T>(ball));
