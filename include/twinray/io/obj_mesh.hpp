@@ -56,14 +56,19 @@ namespace io {
 // is read, packed and rendered in double, at most the 398 measured on PoCL for a mesh
 // with a normal and a texture coordinate per corner, in a process that also compiled
 // the OpenCL program (positions only: 165; float: 95; docs/models.md, "Large meshes",
-// measured with bench/large_mesh.sh). A vertex
-// record costs a tenth as much, so a mesh may hold three per triangle (a triangle
-// soup). The OBJ text is streamed, never held whole; its limit, the memory itself,
-// only stops a load that cannot be a mesh this machine can hold.
+// measured with bench/large_mesh.sh). A vertex record costs a tenth as much, so a mesh
+// may hold three per triangle (a triangle soup). The OBJ text is streamed, never held
+// whole; its limit, the memory itself, only stops a load that cannot be a mesh this
+// machine can hold.
 constexpr long long kPeakBytesPerTriangle = 400;
 
-inline long long memory_triangle_limit() {
+// usable_memory_bytes(), read once per process: every loader's limits default to it.
+inline long long loader_memory_bytes() {
   static const long long memory = usable_memory_bytes();
+  return memory;
+}
+inline long long memory_triangle_limit() {
+  const long long memory = loader_memory_bytes();
   const long long floor = 1ll << 24, ceiling = (1ll << 31) - 1;  // indices are int
   return memory > 0 ? std::clamp(memory / kPeakBytesPerTriangle, floor, ceiling) : floor;
 }
@@ -71,8 +76,7 @@ inline long long memory_vertex_limit() {
   return std::min(3 * memory_triangle_limit(), (1ll << 31) - 1);
 }
 inline long long memory_obj_file_limit() {
-  static const long long memory = usable_memory_bytes();
-  return std::max(256ll << 20, memory);
+  return std::max(256ll << 20, loader_memory_bytes());
 }
 
 struct ObjLimits {
