@@ -8,10 +8,14 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <string>
+#include <vector>
 
 #include <twinray/io/pfm.hpp>
 #include <twinray/io/png.hpp>
+#include <stb_image.h>
+#include <zlib.h>
 #ifdef TWINRAY_WITH_OPENEXR
 #include <twinray/io/exr.hpp>
 #endif
@@ -54,6 +58,72 @@ TEST_CASE("PNG is a valid RGB file of the image's size") {
   CHECK(png[23] == 3);
   CHECK(png[24] == 8);
   CHECK(png[25] == 2);
+}
+
+namespace {
+uint32_t be32(const std::vector<unsigned char>& b, size_t at) {
+  return uint32_t(b[at]) << 24 | uint32_t(b[at + 1]) << 16 | uint32_t(b[at + 2]) << 8 | b[at + 3];
+}
+
+// The PNG's chunk types in order, after checking each chunk's length and CRC-32.
+std::vector<std::string> png_chunks(const std::vector<unsigned char>& png) {
+  std::vector<std::string> types;
+  size_t at = 8;
+  while (at + 12 <= png.size()) {
+    const uint32_t length = be32(png, at);
+    REQUIRE(at + 12 + length <= png.size());
+    const uLong crc = crc32(0L, png.data() + at + 4, length + 4);
+    CHECK(be32(png, at + 8 + length) == crc);
+    types.emplace_back(png.begin() + at + 4, png.begin() + at + 8);
+    at += 12 + length;
+  }
+  CHECK(at == png.size());
+  return types;
+}
+}  // namespace
+
+TEST_CASE_TEMPLATE("PNG decodes to the image's 8-bit values, every chunk's CRC right", T, float,
+                   double) {
+  // Values across and beyond [0, 1], NaN, and neighbours that differ by more than 127
+  // (the Sub filter's byte wraps around).
+  auto check_round_trip = [](int width, int height, uint32_t seed) {
+    CAPTURE(width);
+    CAPTURE(height);
+    Image<T> img(width, height);
+    uint32_t state = seed;
+    for (size_t i = 0; i < img.rgb.size(); ++i) {
+      state = state * 1664525u + 1013904223u;  // Numerical Recipes' LCG
+      img.rgb[i] = static_cast<T>((state >> 8) % 1400) / T(1000) - T(0.2);
+    }
+    img.rgb[0] = std::numeric_limits<T>::quiet_NaN();
+    std::vector<unsigned char> png = io::encode_png(img);
+    std::vector<std::string> types = png_chunks(png);
+    REQUIRE(types.size() >= 3);
+    CHECK(types.front() == "IHDR");
+    CHECK(types.back() == "IEND");
+    for (size_t k = 1; k + 1 < types.size(); ++k) CHECK(types[k] == "IDAT");
+    int w = 0, h = 0, channels = 0;
+    unsigned char* pixels =
+        stbi_load_from_memory(png.data(), static_cast<int>(png.size()), &w, &h, &channels, 3);
+    REQUIRE(pixels != nullptr);
+    std::vector<unsigned char> decoded(pixels, pixels + size_t(w) * h * 3);
+    stbi_image_free(pixels);
+    CHECK(w == width);
+    CHECK(h == height);
+    CHECK(channels == 3);
+    CHECK(decoded == io::to_rgb8(img));
+    return types.size();
+  };
+  check_round_trip(1, 1, 1);
+  check_round_trip(7, 5, 2);
+  check_round_trip(1, 9, 3);
+  // Noise does not compress: more than one 1 MiB IDAT chunk.
+  CHECK(check_round_trip(1000, 600, 4) > 3);
+}
+
+TEST_CASE("PNG refuses an image with no pixels") {
+  CHECK_THROWS_AS(io::encode_png(Image<float>(0, 4)), Error);
+  CHECK_THROWS_AS(io::encode_png(Image<float>(4, 0)), Error);
 }
 
 TEST_CASE_TEMPLATE("PFM round trip keeps every float bit, rows bottom to top", T, float, double) {
