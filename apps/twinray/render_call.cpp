@@ -40,10 +40,13 @@ twinray::Image<T> SceneRenderer<T>::render(const twinray::io::SceneFile<T>& file
   if (!s.packed || geometry != s.geometry) {
     auto t0 = std::chrono::steady_clock::now();
     // Where only instances moved, the assets stay packed: only the top level is built.
-    if (!(s.packed && instances_only && s.scene && twinray::update_instances(*s.scene, file.scene)))
+    if (s.packed && instances_only && s.scene && twinray::update_instances(*s.scene, file.scene)) {
+      s.backend->set_moved_instances(s.scene);
+    } else {
       s.scene = std::make_shared<twinray::PackedScene<T>>(
           twinray::pack_scene(file.scene, s.backend->pack_options()));
-    s.backend->set_scene(s.scene);
+      s.backend->set_scene(s.scene);
+    }
     pack_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     s.packed = true;

@@ -7,7 +7,9 @@
 
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <twinray/scene/animation.hpp>
@@ -222,6 +224,62 @@ TEST_CASE("moving instances build only the top level again: the same packing, th
   CHECK_THROWS_WITH(twinray::update_instances(ps, scene),
                     "objects[1].transform: is singular: it has no inverse to map rays by");
   CHECK(ps.bvh_nodes == before);
+}
+
+TEST_CASE_TEMPLATE("moved instances send only the top level and the instances to the device", T,
+                   float, double) {
+  if (!twinray::opencl_available()) {
+    MESSAGE("no OpenCL device: skipped");
+    return;
+  }
+  // Both ways a device gets the scene: copied, and wrapped in place (a CPU device).
+  for (const char* in_place : {"0", "1"}) {
+    CAPTURE(in_place);
+    test_support::ScopedEnv env("TWINRAY_OPENCL_IN_PLACE", in_place);
+    const bool copies = std::string(in_place) == "0";
+    twinray::opencl::OpenCLBackend<T> cl;
+    Scene<T> scene = three_placements<T>();
+    auto ps =
+        std::make_shared<twinray::PackedScene<T>>(twinray::pack_scene(scene, cl.pack_options()));
+    RenderOptions options;
+    options.log = [](const std::string&) {};
+    const Camera<T> camera = view<T>();
+    cl.set_scene(ps);
+    cl.render({camera, scene.lights, options, {}});
+    CHECK(cl.scene_bytes_sent() ==
+          (copies ? ps->bytes() - ps->triangle_faces.size() * sizeof(int) : size_t(0)));
+    for (int frame = 1; frame <= 3; ++frame) {
+      CAPTURE(frame);
+      for (auto& o : scene.objects)
+        if (auto* in = std::get_if<twinray::Instance<T>>(&o))
+          in->to_world = Transform::scale_rotate_translate({1, 1, 1}, {0, 1, 0}, 20.0 * frame,
+                                                           {0.2 * frame, 0, -0.1 * frame})
+                             .m *
+                         in->to_world;
+      REQUIRE(twinray::update_instances(*ps, scene));
+      cl.set_moved_instances(ps);
+      const size_t before = cl.scene_bytes_sent();
+      const Image<T> moved = cl.render({camera, scene.lights, options, {}});
+      // The moved scene, packed whole and rendered on the CPU: the same bits.
+      const Image<T> expected = test::render_with(scene, camera, options, Backend::Cpu);
+      CHECK(test::differing_values(moved, expected) == 0);
+      // Sent: the top level's nodes and the instance array, not the assets.
+      const size_t node_bytes = twinray::bvh::WideNodes<T>::node_bytes(ps->bvh_width());
+      const size_t top_level =
+          ps->bvh_nodes.bytes() - static_cast<size_t>(ps->instance_root) * node_bytes;
+      CHECK(cl.scene_bytes_sent() - before ==
+            (copies ? top_level + ps->instances.size() * sizeof(ps->instances[0]) : size_t(0)));
+      CHECK(cl.scene_uploads() == 1);
+      CHECK(cl.top_level_uploads() == frame);
+    }
+    // Another scene is sent whole.
+    auto other =
+        std::make_shared<twinray::PackedScene<T>>(twinray::pack_scene(scene, cl.pack_options()));
+    cl.set_moved_instances(other);
+    cl.render({camera, scene.lights, options, {}});
+    CHECK(cl.scene_uploads() == 2);
+    CHECK(cl.top_level_uploads() == 3);
+  }
 }
 
 TEST_CASE("an animation that moves only instances is told apart") {

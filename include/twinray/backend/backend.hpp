@@ -106,6 +106,13 @@ class RenderBackend {
   // arrays in place) or uploads the arrays at the next render and lets it go (OpenCL).
   virtual void set_scene(std::shared_ptr<const PackedScene<T>> scene) = 0;
 
+  // The same, for the scene set last after update_instances() (pack/pack.hpp) moved its
+  // instances in place: a backend that copies the scene to its device sends only the
+  // top level and the instances again, not the assets. Any other scene is set whole.
+  virtual void set_moved_instances(std::shared_ptr<const PackedScene<T>> scene) {
+    set_scene(std::move(scene));
+  }
+
   // Renders the request against the scene into `image`, which becomes rect.width x
   // rect.height (the whole frame by default); every pixel is written. The image's
   // storage is reused where it is large enough, so a frame loop that passes the same

@@ -86,12 +86,25 @@ class OpenCLBackend final : public RenderBackend<T> {
 
   void set_scene(std::shared_ptr<const PackedScene<T>> scene) override {
     pending_ = std::move(scene);
+    pending_top_level_.reset();
     has_scene_ = pending_ != nullptr;
     if (has_scene_) scene_ = pending_->summary();
   }
 
-  // Times the scene's arrays went to the device (once per set_scene that was rendered).
+  // Only the top level and the instances go at the next render, where `scene` is the
+  // one the device holds; else (another scene, or one not sent yet) set_scene().
+  void set_moved_instances(std::shared_ptr<const PackedScene<T>> scene) override {
+    if (!scene || pending_ || scene != uploaded_.lock()) return set_scene(std::move(scene));
+    scene_ = scene->summary();
+    pending_top_level_ = std::move(scene);
+  }
+
+  // Times the scene's arrays went to the device (once per set_scene that was rendered),
+  // times only its top level did (set_moved_instances), and the bytes copied in all
+  // (nothing where the device reads them in place).
   long long scene_uploads() const { return scene_uploads_; }
+  long long top_level_uploads() const { return top_level_uploads_; }
+  size_t scene_bytes_sent() const { return buffers_.bytes_sent(); }
 
   // Whether the device works in the host's memory (a CPU device): then the scene's
   // arrays and the framebuffer are wrapped, not copied (buffers.hpp). Oclgrind is left
@@ -293,9 +306,16 @@ class OpenCLBackend final : public RenderBackend<T> {
   // Sends the scene set last to the device if it has not gone yet; whether it went now.
   // Its triangle_faces stay on the host until a query (upload_faces).
   bool upload_pending_scene() {
-    if (!pending_) return false;
     const bool in_place = shares_host_memory();
+    if (pending_top_level_) {
+      buffers_.upload_top_level(ctx_, *pending_top_level_, in_place);
+      pending_top_level_.reset();
+      ++top_level_uploads_;
+      return true;
+    }
+    if (!pending_) return false;
     buffers_.upload_scene(ctx_, *pending_, in_place);
+    uploaded_ = pending_;
     // In place, the device reads the packed arrays themselves: keep them. Otherwise
     // the device holds a copy, and the host's is the caller's business: all but
     // triangle_faces, kept here (4 bytes a triangle) for a query to send.
@@ -505,6 +525,9 @@ class OpenCLBackend final : public RenderBackend<T> {
   Context& ctx_;
   SceneSummary<T> scene_;  // what pack_frame reads; the arrays are in buffers_
   std::shared_ptr<const PackedScene<T>> pending_;  // set, not yet uploaded
+  // Set by set_moved_instances: the scene the device holds, its top level not yet sent.
+  std::shared_ptr<const PackedScene<T>> pending_top_level_;
+  std::weak_ptr<const PackedScene<T>> uploaded_;  // the scene whose arrays the device holds
   // The arrays the device reads in place (shares_host_memory()); declared before the
   // buffers that wrap them, so that it outlives them.
   std::shared_ptr<const PackedScene<T>> host_scene_;
@@ -512,7 +535,7 @@ class OpenCLBackend final : public RenderBackend<T> {
   LargeVector<int> host_faces_;
   bool in_place_;  // shares_host_memory()
   bool has_scene_ = false;
-  long long scene_uploads_ = 0;
+  long long scene_uploads_ = 0, top_level_uploads_ = 0;
   SceneBuffers buffers_;
   Buffer output_, stats_, flags_, pixels_;
   Buffer query_rays_, query_out_, query_extras_;

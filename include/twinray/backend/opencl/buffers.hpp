@@ -13,6 +13,7 @@
 
 #include <array>
 #include <string>
+#include <type_traits>
 
 #include <twinray/backend/opencl/context.hpp>
 #include <twinray/pack/pack.hpp>
@@ -69,6 +70,25 @@ class Buffer {
     bytes_ = bytes;
   }
 
+  // Writes bytes [from, bytes) of `data` at the same offset, where the buffer is its
+  // own, large enough and holds bytes [0, from) already (written before, unchanged);
+  // else all of it, as write(), into a buffer with `headroom` bytes to spare for the
+  // next time. Returns the bytes sent.
+  size_t write_from(const Context& ctx, cl_mem_flags flags, const void* data, size_t bytes,
+                    size_t from, size_t headroom, const char* what) {
+    if (!(mem_ && capacity_ >= bytes && bytes_ >= from && from <= bytes)) {
+      reserve(ctx.context(), flags, bytes + headroom, what);
+      write(ctx, flags, data, bytes, what);
+      return bytes;
+    }
+    if (bytes > from)
+      check(clEnqueueWriteBuffer(ctx.queue(), mem_, CL_TRUE, from, bytes - from,
+                                 static_cast<const char*>(data) + from, 0, nullptr, nullptr),
+            "clEnqueueWriteBuffer");
+    bytes_ = bytes;
+    return bytes - from;
+  }
+
   void release() {
     if (mem_) clReleaseMemObject(mem_);
     mem_ = nullptr;
@@ -103,6 +123,9 @@ class SceneBuffers {
     put(triangles_, ps.triangles);
     put(planes_, ps.planes);
     put(materials_, ps.materials);
+    if (!in_place && ps.instance_root >= 0)  // room for the moved top levels to come
+      bvh_nodes_.reserve(ctx.context(), CL_MEM_READ_ONLY,
+                         2 * ps.bvh_nodes.bytes() - top_level_offset(ps), "clCreateBuffer (BVH)");
     put_bytes(ctx, bvh_nodes_, ps.bvh_nodes.data(), ps.bvh_nodes.bytes(), in_place);
     put(bvh_prims_, ps.bvh_prims);
     put(triangle_attrs_, ps.triangle_attrs);
@@ -115,6 +138,27 @@ class SceneBuffers {
                             "clCreateBuffer (triangle faces placeholder)");
     has_faces_ = false;
   }
+
+  // The scene these buffers hold, after update_instances (pack.hpp) moved its instances
+  // in place: only the top level's nodes (node ps.instance_root on) and the instance
+  // array go again; the assets' nodes and every other array stay. In place, those two
+  // are wrapped again (their storage may have moved).
+  template <class T>
+  void upload_top_level(const Context& ctx, const PackedScene<T>& ps, bool in_place) {
+    const size_t from = top_level_offset(ps), bytes = ps.bvh_nodes.bytes();
+    // A top level that outgrows the buffer sends the whole tree, into room for one twice
+    // as large, so that the next frames' top levels fit.
+    if (in_place)
+      put_bytes(ctx, bvh_nodes_, ps.bvh_nodes.data(), bytes, true);
+    else
+      bytes_sent_ += bvh_nodes_.write_from(ctx, CL_MEM_READ_ONLY, ps.bvh_nodes.data(), bytes, from,
+                                           bytes - from, "clCreateBuffer (BVH)");
+    put_bytes(ctx, instances_, ps.instances.data(), ps.instances.size() * sizeof(ps.instances[0]),
+              in_place);
+  }
+
+  // Bytes of scene arrays copied to the device so far (wrapped arrays count nothing).
+  size_t bytes_sent() const { return bytes_sent_; }
 
   // Each triangle's index in its mesh (PackedScene::triangle_faces), for ray queries:
   // sent, or wrapped with `in_place` (then `faces` must outlive the buffers), once per
@@ -164,18 +208,27 @@ class SceneBuffers {
   cl_mem params() const { return params_.mem(); }
 
  private:
-  static void put_bytes(const Context& ctx, Buffer& b, const void* data, size_t bytes,
-                        bool in_place) {
-    if (in_place)  // read-only on both sides: the const_cast only meets the C API
+  // Where the top level's nodes start in the node array (instance_root on).
+  template <class T>
+  static size_t top_level_offset(const PackedScene<T>& ps) {
+    return static_cast<size_t>(ps.instance_root) *
+           std::decay_t<decltype(ps.bvh_nodes)>::node_bytes(ps.bvh_width());
+  }
+
+  void put_bytes(const Context& ctx, Buffer& b, const void* data, size_t bytes, bool in_place) {
+    if (in_place) {  // read-only on both sides: the const_cast only meets the C API
       b.wrap(ctx.context(), CL_MEM_READ_ONLY, const_cast<void*>(data), bytes,
              "clCreateBuffer (scene data, host memory)");
-    else
+    } else {
       b.write(ctx, CL_MEM_READ_ONLY, data, bytes, "clCreateBuffer (scene data)");
+      bytes_sent_ += bytes;
+    }
   }
 
   Buffer params_, spheres_, triangles_, planes_, materials_, lights_, bvh_nodes_, bvh_prims_,
       triangle_attrs_, textures_, texels_, object_masks_, triangle_faces_, instances_;
   bool has_faces_ = false;
+  size_t bytes_sent_ = 0;
 };
 
 }  // namespace opencl
