@@ -1,5 +1,5 @@
-// Small helpers the benchmark programs that compare two renders share
-// (embree_tree_bench.cpp, ab/ab_frames.cpp, ab/ab_side.cpp). No twinray header: an
+// Small helpers the benchmark programs share (embree_tree_bench.cpp, ab/ab_frames.cpp,
+// ab/ab_side.cpp, ray_query_bench.cpp, query_batch_bench.cpp). No twinray header: an
 // ab_side module built from an older tree includes this one.
 #pragma once
 
@@ -9,6 +9,17 @@
 #include <vector>
 
 namespace twinray_bench {
+
+// A uniform number in [0, 1) from a counter (Wellons' lowbias32 hash): random numbers
+// that any thread makes for any index, the same on every run.
+inline float hash01(std::uint32_t x) {
+  x ^= x >> 16;
+  x *= 0x7feb352du;
+  x ^= x >> 15;
+  x *= 0x846ca68bu;
+  x ^= x >> 16;
+  return float(x >> 8) * (1.0f / 16777216.0f);
+}
 
 // FNV-1a over the bytes of an image's framebuffer (any type with a `rgb` vector): the
 // same image bits, the same hash.

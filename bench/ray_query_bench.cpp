@@ -41,19 +41,9 @@ double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-// A uniform number in [0, 1) from a counter (Wellons' lowbias32).
-float hash01(uint32_t x) {
-  x ^= x >> 16;
-  x *= 0x7feb352du;
-  x ^= x >> 15;
-  x *= 0x846ca68bu;
-  x ^= x >> 16;
-  return float(x >> 8) * (1.0f / 16777216.0f);
-}
-
 // A cosine-distributed direction over the hemisphere of unit n (Malley's method).
 vec3 cosine_direction(vec3 n, uint32_t id) {
-  const float r1 = hash01(2 * id), r2 = hash01(2 * id + 1);
+  const float r1 = twinray_bench::hash01(2 * id), r2 = twinray_bench::hash01(2 * id + 1);
   const float radius = std::sqrt(r1), phi = 6.2831853f * r2;
   const vec3 a = std::fabs(n.x) > 0.5f ? vec3(0, 1, 0) : vec3(1, 0, 0);
   const vec3 t = glm::normalize(glm::cross(a, n)), b = glm::cross(n, t);
