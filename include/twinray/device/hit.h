@@ -22,3 +22,24 @@ TR_FN TrHit tr_no_hit(void) {
   tr_set_no_hit(&h);
   return h;
 }
+
+/* A primitive's hit record with every field set, each stored once from its value: the
+ * shading normal is n, shadow rays start at p, no texture coordinates (a triangle's
+ * attributes may change these after). Stored, never read back: a copy such as ns = n
+ * read from the record made g++ load the normal across the end of the wider store it
+ * had merged the fields before it into, a store-forwarding stall on every hit
+ * (tr_record_hit took 19% of g++'s samples on the demo frame, 7% of clang's). */
+TR_FN_INLINE void tr_set_hit(TrHit* h, real t, vec3 p, vec3 perr, vec3 n, int material,
+                             int object) {
+  h->t = t;
+  h->p = p;
+  h->perr = perr;
+  h->n = n;
+  h->ns = n;
+  h->shadow_p = p;
+  h->shadow_perr = perr;
+  h->u = TR_R(0.0);
+  h->v = TR_R(0.0);
+  h->material = material;
+  h->object = object;
+}

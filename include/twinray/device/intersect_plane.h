@@ -34,12 +34,7 @@ TR_FN void tr_plane_record(TR_GLOBAL const TrPlane* pl, TrRay ray, real t, TrHit
   vec3 n = tr_plane_normal(pl), point = tr_plane_point(pl);
   vec3 p = ray.o + ray.d * t;
   p = p - n * tr_dot(p - point, n);
-  hit->t = t;
-  hit->p = p;
-  hit->perr = (tr_abs3(p) + tr_abs3(point)) * tr_gamma(8);
-  hit->n = n;
-  hit->material = pl->material;
-  hit->object = pl->object;
+  tr_set_hit(hit, t, p, (tr_abs3(p) + tr_abs3(point)) * tr_gamma(8), n, pl->material, pl->object);
 }
 
 /* The whole test for one ray and one plane, hits in (0, tmax) (tests, one-off queries). */

@@ -126,12 +126,9 @@ TR_FN void tr_sphere_record(TR_GLOBAL const TrSphere* sp, TrRay ray, real t, TrH
   real r = sp->radius;
   vec3 rel = (ray.o - center) + ray.d * t;
   rel = rel * (r / tr_length(rel)); /* refine onto the surface */
-  hit->t = t;
-  hit->p = center + rel;
-  hit->perr = tr_abs3(rel) * tr_gamma(5) + (tr_abs3(center) + tr_abs3(rel)) * tr_gamma(1);
-  hit->n = rel * (TR_R(1.0) / r);
-  hit->material = sp->material;
-  hit->object = sp->object;
+  tr_set_hit(hit, t, center + rel,
+             tr_abs3(rel) * tr_gamma(5) + (tr_abs3(center) + tr_abs3(rel)) * tr_gamma(1),
+             rel * (TR_R(1.0) / r), sp->material, sp->object);
 }
 
 /* The whole test for one ray and one sphere, hits in (0, tmax) (tests, one-off queries). */

@@ -158,12 +158,9 @@ TR_FN void tr_triangle_record(TR_GLOBAL const TrTriangle* tri, TrRay ray, const 
   vec3 b = *bary;
   vec3 p0 = tr_triangle_p0(tri), p1 = tr_triangle_p1(tri), p2 = tr_triangle_p2(tri);
   vec3 normal = tr_cross(p1 - p0, p2 - p0);
-  hit->t = t;
-  hit->p = p0 * b.x + p1 * b.y + p2 * b.z;
-  hit->perr = (tr_abs3(p0 * b.x) + tr_abs3(p1 * b.y) + tr_abs3(p2 * b.z)) * tr_gamma(7);
-  hit->n = normal * (TR_R(1.0) / tr_sqrt(tr_dot(normal, normal)));
-  hit->material = tri->material;
-  hit->object = tri->object;
+  tr_set_hit(hit, t, p0 * b.x + p1 * b.y + p2 * b.z,
+             (tr_abs3(p0 * b.x) + tr_abs3(p1 * b.y) + tr_abs3(p2 * b.z)) * tr_gamma(7),
+             normal * (TR_R(1.0) / tr_sqrt(tr_dot(normal, normal))), tri->material, tri->object);
 }
 
 /* Vertex normals and texture coordinates, interpolated at the hit (barycentrics b).

@@ -9,13 +9,11 @@
 
 /* The hit record of the nearest hit, made once per ray from its (t, primitive). The
  * shading normal, shadow origin and uv are the geometric ones unless a triangle's
- * attributes say otherwise. The record is made in a local and copied out once: made in
- * *hit_out, g++ merged the primitive's stores into one 32-byte store and then read the
- * normal back across its end to copy it into ns, a store-forwarding stall on every hit
- * (docs/performance.md). */
-TR_FN void tr_record_hit(const TrSceneRef* s, TrRay world_ray, TrNearest nearest, TrHit* hit_out) {
-  TrHit record;
-  TrHit* hit = &record;
+ * attributes say otherwise. Each primitive's record sets every field once
+ * (tr_set_hit), in place: no field is read back to copy it, and no local record is
+ * copied out (g++ read such a copy with wide loads across the narrower stores that
+ * had just made it, a store-forwarding stall on every hit). */
+TR_FN void tr_record_hit(const TrSceneRef* s, TrRay world_ray, TrNearest nearest, TrHit* hit) {
   /* A hit in an instance is recorded in its asset's space, then brought to the world. */
   int in_instance = TR_HAS(TR_F_INSTANCES) && nearest.instance >= 0;
   TrRay ray = in_instance ? tr_instance_ray(&s->instances[nearest.instance], world_ray) : world_ray;
@@ -32,16 +30,12 @@ TR_FN void tr_record_hit(const TrSceneRef* s, TrRay world_ray, TrNearest nearest
     tr_triangle_record(&s->triangles[triangle], ray, &tri_ray, nearest.t, hit, &bary);
   } else if (TR_HAS(TR_F_PLANES)) {
     tr_plane_record(&s->planes[prim - n_bounded], ray, nearest.t, hit);
+  } else {
+    tr_set_no_hit(hit); /* no such primitive (never for a hit found): every field set */
   }
-  hit->ns = hit->n;
-  hit->shadow_p = hit->p;
-  hit->shadow_perr = hit->perr;
-  hit->u = TR_R(0.0);
-  hit->v = TR_R(0.0);
   if (tr_use(s, TR_F_ATTRIBUTES) && triangle >= 0)
     tr_triangle_attributes(&s->triangle_attrs[triangle], &s->triangles[triangle], bary, ray.d, hit);
   if (in_instance) tr_instance_hit_to_world(&s->instances[nearest.instance], hit);
-  *hit_out = record;
 }
 
 /* The end of a closest-hit query once the BVH (or the flat arrays) has been searched:
