@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace twinray_bench {
@@ -36,6 +37,9 @@ std::uint64_t image_hash(const Image& image) {
 inline double quantile(std::vector<double> v, double q) {
   std::sort(v.begin(), v.end());
   return v[static_cast<std::size_t>(q * static_cast<double>(v.size() - 1) + 0.5)];
+}
+inline double median(std::vector<double> v) {
+  return quantile(std::move(v), 0.5);
 }
 
 }  // namespace twinray_bench

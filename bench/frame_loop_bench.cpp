@@ -20,17 +20,9 @@
 #include <twinray/twinray.hpp>
 
 #include "bench_runner.hpp"
+#include "bench_stats.hpp"
 
 namespace {
-
-double ms_since(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
-}
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
 
 // The camera of frame i: a step along a circle around the look-at point.
 twinray::Camera<float> camera_at(const twinray::Camera<float>& base, int i) {
@@ -86,7 +78,7 @@ int main(int argc, char** argv) {
       auto t0 = std::chrono::steady_clock::now();
       for (int i = 0; i < frames; ++i)
         (void)twinray::render(b.scene, camera_at(b.camera, i), options);
-      one_call.push_back(ms_since(t0) / frames);
+      one_call.push_back(twinray_bench::ms_since(t0) / frames);
 
       t0 = std::chrono::steady_clock::now();
       auto backend = twinray::make_backend<float>(options);
@@ -94,9 +86,9 @@ int main(int argc, char** argv) {
       twinray::Image<float> image;
       for (int i = 0; i < frames; ++i)
         backend->render_into({camera_at(b.camera, i), b.scene.lights, options}, image);
-      reused.push_back(ms_since(t0) / frames);
+      reused.push_back(twinray_bench::ms_since(t0) / frames);
     }
-    double a = median(one_call), c = median(reused);
+    double a = twinray_bench::median(one_call), c = twinray_bench::median(reused);
     std::cout << scene_name << "," << name << "," << frames << "," << a << "," << c << "," << c / a
               << std::endl;
   }

@@ -26,17 +26,13 @@
 
 #include "bench_runner.hpp"
 #include "bench_scenes.hpp"
+#include "bench_stats.hpp"
 
 #ifdef TWINRAY_BENCH_WITH_EMBREE
 #include "embree_world.hpp"
 #endif
 
 namespace {
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
 
 #ifdef TWINRAY_BENCH_WITH_EMBREE
 // Embree's top level: a new scene of one instance geometry per placement of `asset`,
@@ -145,10 +141,12 @@ int main(int argc, char** argv) {
     theirs.push_back(embree_top_level_ms(device, asset, forest));
 #endif
   }
-  std::cout << "  top level of " << k << " instances: twinray " << median(ours) << " ms";
+  std::cout << "  top level of " << k << " instances: twinray " << twinray_bench::median(ours)
+            << " ms";
 #ifdef TWINRAY_BENCH_WITH_EMBREE
-  std::cout << ", Embree " << RTC_VERSION_STRING << " " << median(theirs) << " ms (twinray/Embree "
-            << median(ours) / median(theirs) << ")";
+  std::cout << ", Embree " << RTC_VERSION_STRING << " " << twinray_bench::median(theirs)
+            << " ms (twinray/Embree " << twinray_bench::median(ours) / twinray_bench::median(theirs)
+            << ")";
   rtcReleaseScene(asset);
   rtcReleaseDevice(device);
 #endif
@@ -168,14 +166,13 @@ int main(int argc, char** argv) {
     per_frame.push_back(twinray_bench::ms_since(u0));
   }
   std::cout << "  " << moving << " moving instances, " << frames
-            << " frames: top level per frame median " << median(per_frame) << " ms, largest "
-            << *std::max_element(per_frame.begin(), per_frame.end()) << " ms; assets "
+            << " frames: top level per frame median " << twinray_bench::median(per_frame)
+            << " ms, largest " << *std::max_element(per_frame.begin(), per_frame.end())
+            << " ms; assets "
             << (moved.triangles.data() == asset_triangles ? "packed once" : "PACKED AGAIN") << "\n";
   // What a device that copies the scene gets per moved frame (set_moved_instances): the
   // top level's nodes and the instance array, out of the whole scene.
-  const size_t top_level = moved.bvh_nodes.bytes() -
-                           static_cast<size_t>(moved.instance_root) *
-                               twinray::bvh::WideNodes<float>::node_bytes(moved.bvh_width()) +
+  const size_t top_level = moved.bvh_nodes.bytes() - moved.top_level_offset() +
                            moved.instances.size() * sizeof(moved.instances[0]);
   std::cout << "  sent to a copying device per moved frame: " << top_level / 1024.0 << " KiB of "
             << moved.bytes() / double(1 << 20) << " MiB\n";

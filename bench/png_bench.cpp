@@ -20,15 +20,12 @@
 #include <twinray/io/pfm.hpp>
 #include <twinray/io/png.hpp>
 
+#include "bench_stats.hpp"
+
 namespace {
 
 double ms_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
-}
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
 }
 
 size_t stb_png_bytes(const twinray::Image<float>& image) {
@@ -75,7 +72,7 @@ int main(int argc, char** argv) {
         their_bytes = stb_png_bytes(image);
         theirs.push_back(ms_since(t));
       }
-      const double a = median(ours), b = median(theirs);
+      const double a = twinray_bench::median(ours), b = twinray_bench::median(theirs);
       std::printf("%s,%d,%d,%.1f,%.1f,%.2f,%zu,%zu\n", file.c_str(), image.width, image.height, a,
                   b, b / a, our_bytes, their_bytes);
     }

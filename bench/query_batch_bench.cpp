@@ -25,17 +25,6 @@ namespace {
 
 using vec3 = glm::vec3;
 
-std::vector<std::string> split(const std::string& s) {
-  std::vector<std::string> out;
-  size_t at = 0;
-  while (at <= s.size()) {
-    const size_t comma = std::min(s.find(',', at), s.size());
-    if (comma > at) out.push_back(s.substr(at, comma - at));
-    at = comma + 1;
-  }
-  return out;
-}
-
 double resident_mib() {
   const std::string v = twinray_bench::read_first("/proc/self/status", "VmRSS");
   return v.empty() ? 0.0 : std::atof(v.c_str()) / 1024.0;
@@ -75,16 +64,9 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "%s\n", e.what());
     return 2;
   }
-  // The box the rays start in: the bounded objects' (planes have none).
-  vec3 lo(INFINITY), hi(-INFINITY);
-  for (const auto& o : b.scene.objects) {
-    if (auto* s = std::get_if<twinray::Sphere<float>>(&o)) {
-      lo = glm::min(lo, s->center - s->radius);
-      hi = glm::max(hi, s->center + s->radius);
-    } else if (auto* m = std::get_if<twinray::Mesh<float>>(&o)) {
-      for (const auto& p : m->vertices) lo = glm::min(lo, p), hi = glm::max(hi, p);
-    }
-  }
+  // The box the rays start in: the spheres and meshes (planes have none).
+  vec3 lo, hi;
+  twinray_bench::bounded_box(b.scene, lo, hi);
   const size_t count = static_cast<size_t>(n);
   std::vector<twinray::Ray<float>> rays(count);
   twinray::parallel_for(static_cast<int>((count + 65535) / 65536), 1, [&](int c) {
@@ -108,7 +90,7 @@ int main(int argc, char** argv) {
 
   std::vector<std::vector<twinray::Hit<float>>> answers;
   std::vector<std::string> names;
-  for (const std::string& name : split(backends_arg)) {
+  for (const std::string& name : twinray_bench::split(backends_arg)) {
     twinray::RenderOptions options;
     options.log = [](const std::string&) {};
     if (name == "cpu")

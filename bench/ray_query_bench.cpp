@@ -199,15 +199,8 @@ int main(int argc, char** argv) {
       return 2;
     }
     // Both engines get the same bounded geometry: each plane becomes a quad.
-    vec3 lo(INFINITY), hi(-INFINITY);
-    for (const auto& o : b.scene.objects) {
-      if (auto* s = std::get_if<twinray::Sphere<float>>(&o)) {
-        lo = glm::min(lo, s->center - s->radius);
-        hi = glm::max(hi, s->center + s->radius);
-      } else if (auto* m = std::get_if<twinray::Mesh<float>>(&o)) {
-        for (const auto& p : m->vertices) lo = glm::min(lo, p), hi = glm::max(hi, p);
-      }
-    }
+    vec3 lo, hi;
+    twinray_bench::bounded_box(b.scene, lo, hi);
     const float diameter = glm::length(hi - lo);
     twinray::Scene<float> bounded = b.scene;
     bounded.objects.clear();

@@ -84,6 +84,14 @@ Camera<T> view(int width = 96, int height = 72) {
   return c;
 }
 
+// Moves every instance of the scene: turned by `degrees` about y, then shifted by `by`.
+template <class T>
+void move_instances(Scene<T>& scene, double degrees, glm::dvec3 by) {
+  const glm::dmat4 step = Transform::scale_rotate_translate({1, 1, 1}, {0, 1, 0}, degrees, by).m;
+  for (auto& o : scene.objects)
+    if (auto* in = std::get_if<twinray::Instance<T>>(&o)) in->to_world = step * in->to_world;
+}
+
 // The largest difference between two images' values, and how many differ by more than eps.
 template <class T>
 std::pair<double, size_t> image_difference(const Image<T>& a, const Image<T>& b, double eps) {
@@ -192,12 +200,7 @@ TEST_CASE("moving instances build only the top level again: the same packing, th
   const void* triangles = ps.triangles.data();
   const size_t n_triangles = ps.triangles.size(), n_spheres = ps.spheres.size();
   for (int frame = 1; frame <= 3; ++frame) {
-    for (auto& o : scene.objects)
-      if (auto* in = std::get_if<twinray::Instance<float>>(&o))
-        in->to_world = Transform::scale_rotate_translate({1, 1, 1}, {0, 1, 0}, 10.0 * frame,
-                                                         {0.1 * frame, 0, -0.2 * frame})
-                           .m *
-                       in->to_world;
+    move_instances(scene, 10.0 * frame, {0.1 * frame, 0, -0.2 * frame});
     REQUIRE(twinray::update_instances(ps, scene));
     CHECK(ps.triangles.data() == triangles);  // the assets were not packed again
     CHECK(ps.triangles.size() == n_triangles);
@@ -250,12 +253,7 @@ TEST_CASE_TEMPLATE("moved instances send only the top level and the instances to
           (copies ? ps->bytes() - ps->triangle_faces.size() * sizeof(int) : size_t(0)));
     for (int frame = 1; frame <= 3; ++frame) {
       CAPTURE(frame);
-      for (auto& o : scene.objects)
-        if (auto* in = std::get_if<twinray::Instance<T>>(&o))
-          in->to_world = Transform::scale_rotate_translate({1, 1, 1}, {0, 1, 0}, 20.0 * frame,
-                                                           {0.2 * frame, 0, -0.1 * frame})
-                             .m *
-                         in->to_world;
+      move_instances(scene, 20.0 * frame, {0.2 * frame, 0, -0.1 * frame});
       REQUIRE(twinray::update_instances(*ps, scene));
       cl.set_moved_instances(ps);
       const size_t before = cl.scene_bytes_sent();

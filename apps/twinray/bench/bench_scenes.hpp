@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -235,6 +236,22 @@ BenchScene<T> make_scene(const std::string& name, int width, int height,
   b.name = name;
   b.camera = demo_camera<T>(width, height);
   return b;
+}
+
+// The box around a scene's spheres and meshes, in lo and hi (planes have none; empty,
+// lo > hi, where there is neither).
+template <class T>
+void bounded_box(const twinray::Scene<T>& scene, glm::vec<3, T>& lo, glm::vec<3, T>& hi) {
+  lo = glm::vec<3, T>(std::numeric_limits<T>::infinity());
+  hi = -lo;
+  for (const auto& o : scene.objects) {
+    if (auto* s = std::get_if<twinray::Sphere<T>>(&o)) {
+      lo = glm::min(lo, s->center - s->radius);
+      hi = glm::max(hi, s->center + s->radius);
+    } else if (auto* m = std::get_if<twinray::Mesh<T>>(&o)) {
+      for (const auto& p : m->vertices) lo = glm::min(lo, p), hi = glm::max(hi, p);
+    }
+  }
 }
 
 // The built-in set.

@@ -113,6 +113,11 @@ struct PackedScene {
   int bvh_node_count() const { return bvh_nodes.size(); }
   // Children per BVH node (2, 4 or 8); 0 without a BVH.
   int bvh_width() const { return bvh_nodes.empty() ? 0 : bvh_nodes.width(); }
+  // Bytes of bvh_nodes before the top level's nodes (node instance_root on), which
+  // update_instances() rebuilds; the scene's own tree and the assets' stay. Instances only.
+  size_t top_level_offset() const {
+    return static_cast<size_t>(instance_root) * bvh::WideNodes<T>::node_bytes(bvh_width());
+  }
 
   // Bytes the arrays hold (what an upload sends).
   size_t bytes() const {

@@ -13,7 +13,6 @@
 
 #include <array>
 #include <string>
-#include <type_traits>
 
 #include <twinray/backend/opencl/context.hpp>
 #include <twinray/pack/pack.hpp>
@@ -125,7 +124,7 @@ class SceneBuffers {
     put(materials_, ps.materials);
     if (!in_place && ps.instance_root >= 0)  // room for the moved top levels to come
       bvh_nodes_.reserve(ctx.context(), CL_MEM_READ_ONLY,
-                         2 * ps.bvh_nodes.bytes() - top_level_offset(ps), "clCreateBuffer (BVH)");
+                         2 * ps.bvh_nodes.bytes() - ps.top_level_offset(), "clCreateBuffer (BVH)");
     put_bytes(ctx, bvh_nodes_, ps.bvh_nodes.data(), ps.bvh_nodes.bytes(), in_place);
     put(bvh_prims_, ps.bvh_prims);
     put(triangle_attrs_, ps.triangle_attrs);
@@ -145,7 +144,7 @@ class SceneBuffers {
   // are wrapped again (their storage may have moved).
   template <class T>
   void upload_top_level(const Context& ctx, const PackedScene<T>& ps, bool in_place) {
-    const size_t from = top_level_offset(ps), bytes = ps.bvh_nodes.bytes();
+    const size_t from = ps.top_level_offset(), bytes = ps.bvh_nodes.bytes();
     // A top level that outgrows the buffer sends the whole tree, into room for one twice
     // as large, so that the next frames' top levels fit.
     if (in_place)
@@ -208,13 +207,6 @@ class SceneBuffers {
   cl_mem params() const { return params_.mem(); }
 
  private:
-  // Where the top level's nodes start in the node array (instance_root on).
-  template <class T>
-  static size_t top_level_offset(const PackedScene<T>& ps) {
-    return static_cast<size_t>(ps.instance_root) *
-           std::decay_t<decltype(ps.bvh_nodes)>::node_bytes(ps.bvh_width());
-  }
-
   void put_bytes(const Context& ctx, Buffer& b, const void* data, size_t bytes, bool in_place) {
     if (in_place) {  // read-only on both sides: the const_cast only meets the C API
       b.wrap(ctx.context(), CL_MEM_READ_ONLY, const_cast<void*>(data), bytes,
