@@ -291,3 +291,44 @@ TEST_CASE("an animation that moves only instances is told apart") {
   a.paths[0].targets.push_back(twinray::object_target(0));  // the floor
   CHECK_FALSE(twinray::moves_only_instances(a, scene));
 }
+
+TEST_CASE_TEMPLATE("ray queries through instances: the same hits with and without extras", T, float,
+                   double) {
+  // A query without extras takes a triangle's barycentrics and normal on their own,
+  // without the whole hit record the extras need; both must give the same bytes, in
+  // moved, unevenly scaled and mirrored instances alike, on every backend.
+  const Scene<T> scene = three_placements<T>();
+  const Camera<T> camera = view<T>(64, 48);
+  const auto frame = camera.frame();
+  std::vector<twinray::Ray<T>> rays;
+  for (int y = 0; y < camera.height; ++y)
+    for (int x = 0; x < camera.width; ++x) {
+      const vec3<T> p = frame.first_pixel + frame.du * T(x) + frame.dv * T(y);
+      rays.push_back(twinray::make_ray<T>(frame.origin, p - frame.origin));
+    }
+  std::vector<twinray::Hit<T>> first;
+  for (Backend kind : {Backend::Cpu, Backend::OpenCL}) {
+    RenderOptions options;
+    options.backend = kind;
+    options.log = [](const std::string&) {};
+    auto b = twinray::make_backend<T>(options);
+    b->set_scene(twinray::share(twinray::pack_scene(scene, b->pack_options())));
+    std::vector<twinray::Hit<T>> plain(rays.size()), full(rays.size());
+    std::vector<twinray::HitExtra<T>> extras(rays.size());
+    b->intersect(rays.data(), rays.size(), plain.data());
+    b->intersect(rays.data(), rays.size(), full.data(),
+                 twinray::HitExtras::ShadingNormal | twinray::HitExtras::TextureUv, extras.data());
+    CHECK(std::memcmp(plain.data(), full.data(), plain.size() * sizeof(plain[0])) == 0);
+    size_t on_mesh[3] = {0, 0, 0};
+    for (const auto& h : plain) {
+      if (h.instance < 1 || h.object != 1) continue;  // the asset's mesh, in an instance
+      ++on_mesh[h.instance - 1];
+      CHECK(glm::length(vec3<T>(h.nx, h.ny, h.nz)) == doctest::Approx(1).epsilon(1e-5));
+    }
+    for (size_t k : on_mesh) CHECK(k > 20);  // every placement, the mirrored one too
+    if (first.empty())
+      first = plain;
+    else
+      CHECK(std::memcmp(first.data(), plain.data(), plain.size() * sizeof(plain[0])) == 0);
+  }
+}

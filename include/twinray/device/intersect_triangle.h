@@ -131,6 +131,13 @@ TR_FN_INLINE vec3 tr_triangle_p2(TR_GLOBAL const TrTriangle* tri) {
   return TR_VEC3(tri->p2x, tri->p2y, tri->p2z);
 }
 
+/* The unit geometric normal, (p1 - p0) x (p2 - p0) normalized: it follows the winding. */
+TR_FN_INLINE vec3 tr_triangle_unit_normal(TR_GLOBAL const TrTriangle* tri) {
+  vec3 p0 = tr_triangle_p0(tri);
+  vec3 normal = tr_cross(tr_triangle_p1(tri) - p0, tr_triangle_p2(tri) - p0);
+  return normal * (TR_R(1.0) / tr_sqrt(tr_dot(normal, normal)));
+}
+
 /* The distance along the ray to the triangle, > 0, and the hit's barycentrics in *bary;
  * a value that is not > 0 where the ray misses. */
 TR_FN_INLINE real tr_triangle_t_bary(TR_GLOBAL const TrTriangle* tri, TrRay ray,
@@ -157,10 +164,9 @@ TR_FN void tr_triangle_record(TR_GLOBAL const TrTriangle* tri, TrRay ray, const 
   tr_triangle_t_bary(tri, ray, tr, bary);
   vec3 b = *bary;
   vec3 p0 = tr_triangle_p0(tri), p1 = tr_triangle_p1(tri), p2 = tr_triangle_p2(tri);
-  vec3 normal = tr_cross(p1 - p0, p2 - p0);
   tr_set_hit(hit, t, p0 * b.x + p1 * b.y + p2 * b.z,
              (tr_abs3(p0 * b.x) + tr_abs3(p1 * b.y) + tr_abs3(p2 * b.z)) * tr_gamma(7),
-             normal * (TR_R(1.0) / tr_sqrt(tr_dot(normal, normal))), tri->material, tri->object);
+             tr_triangle_unit_normal(tri), tri->material, tri->object);
 }
 
 /* Vertex normals and texture coordinates, interpolated at the hit (barycentrics b).

@@ -172,17 +172,37 @@ TR_FN void tr_query_write(const TrSceneRef* s, TrRay ray, TrNearest nearest, int
     TrRay asset_ray = in_instance ? tr_instance_ray(&s->instances[nearest.instance], ray) : ray;
     TrNearest asset_nearest = nearest;
     asset_nearest.instance = -1;
-    TrHit hit;
-    tr_record_hit(s, asset_ray, asset_nearest, &hit);
-    tr_query_surface_uv(s, asset_ray, asset_nearest, &hit, &h.u, &h.v);
-    int object = hit.object; /* in an instance: the object's index in its asset */
-    if (in_instance) {
-      h.instance = s->instances[nearest.instance].object;
-      tr_instance_hit_to_world(&s->instances[nearest.instance], &hit);
+    int triangle = nearest.prim - s->params->n_spheres;
+    vec3 n, ns = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
+    int object; /* in an instance: the object's index in its asset */
+    if (extra_flags == 0 && TR_HAS(TR_F_TRIANGLES) && triangle >= 0 &&
+        triangle < s->params->n_triangles) {
+      /* A triangle with no extras asked: its barycentrics and normal, the same values
+       * the full record (tr_triangle_record) holds, without the rest of the record. */
+      TR_GLOBAL const TrTriangle* tri = &s->triangles[triangle];
+      TrTriangleRay tri_ray = tr_triangle_ray(asset_ray);
+      vec3 bary = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
+      tr_triangle_t_bary(tri, asset_ray, &tri_ray, &bary);
+      h.u = bary.y;
+      h.v = bary.z;
+      n = tr_triangle_unit_normal(tri);
+      object = tri->object;
+      if (in_instance) n = tr_instance_normal(&s->instances[nearest.instance], n);
+    } else {
+      TrHit hit;
+      tr_record_hit(s, asset_ray, asset_nearest, &hit);
+      tr_query_surface_uv(s, asset_ray, asset_nearest, &hit, &h.u, &h.v);
+      object = hit.object;
+      if (in_instance) tr_instance_hit_to_world(&s->instances[nearest.instance], &hit);
+      n = hit.n;
+      ns = hit.ns;
+      e.tex_u = hit.u;
+      e.tex_v = hit.v;
     }
+    if (in_instance) h.instance = s->instances[nearest.instance].object;
     /* The normal faces the side the ray comes from. */
-    int flip = tr_dot(hit.n, ray.d) > TR_R(0.0);
-    vec3 n = flip ? -hit.n : hit.n;
+    int flip = tr_dot(n, ray.d) > TR_R(0.0);
+    n = flip ? -n : n;
     h.t = nearest.t;
     h.nx = n.x;
     h.ny = n.y;
@@ -190,14 +210,14 @@ TR_FN void tr_query_write(const TrSceneRef* s, TrRay ray, TrNearest nearest, int
     h.object = object;
     h.primitive = tr_query_face(s, nearest.prim);
     if ((extra_flags & TR_QUERY_SHADING_NORMAL) != 0) {
-      vec3 ns = flip ? -hit.ns : hit.ns;
+      ns = flip ? -ns : ns;
       e.snx = ns.x;
       e.sny = ns.y;
       e.snz = ns.z;
     }
-    if ((extra_flags & TR_QUERY_TEXTURE_UV) != 0) {
-      e.tex_u = hit.u;
-      e.tex_v = hit.v;
+    if ((extra_flags & TR_QUERY_TEXTURE_UV) == 0) {
+      e.tex_u = TR_R(0.0);
+      e.tex_v = TR_R(0.0);
     }
   }
   *out = h;
