@@ -358,6 +358,7 @@ TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nea
   TrRay cur = ray;
   int inst = -1;
   TrBoxRay box_ray = tr_box_ray(ray);
+  TrBoxRay world_box_ray = box_ray; /* taken back on leaving an instance */
   TrTriangleRay tri_ray;
   int have_tri_ray = 0;
   real grow = tr_box_grow();
@@ -373,6 +374,7 @@ TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nea
         cur = ray;
         inst = -1;
         index = -1;
+        box_ray = world_box_ray;
       } else {
         inst = TR_WALK_ENTER(0) - index;
         cur = tr_instance_ray(&s->instances[inst], ray);
@@ -380,8 +382,8 @@ TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nea
         stack_t[top] = TR_R(0.0);
         ++top;
         index = s->instances[inst].root;
+        box_ray = tr_box_ray(cur);
       }
-      box_ray = tr_box_ray(cur);
       have_tri_ray = 0;
       if (index == -1) {
         index = tr_walk_pop(nearest->t * grow, stack_node, stack_t, &top);
