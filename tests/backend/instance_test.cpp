@@ -17,6 +17,7 @@
 #include <twinray/scene/transform.hpp>
 
 #include "backend/parity_util.hpp"
+#include "query/query_scenes.hpp"
 #include "support/meshes.hpp"
 
 namespace {
@@ -318,7 +319,7 @@ TEST_CASE_TEMPLATE("ray queries through instances: the same hits with and withou
     b->intersect(rays.data(), rays.size(), plain.data());
     b->intersect(rays.data(), rays.size(), full.data(),
                  twinray::HitExtras::ShadingNormal | twinray::HitExtras::TextureUv, extras.data());
-    CHECK(std::memcmp(plain.data(), full.data(), plain.size() * sizeof(plain[0])) == 0);
+    CHECK(query_test::same_bytes(plain, full));
     size_t on_mesh[3] = {0, 0, 0};
     for (const auto& h : plain) {
       if (h.instance < 1 || h.object != 1) continue;  // the asset's mesh, in an instance
@@ -329,6 +330,6 @@ TEST_CASE_TEMPLATE("ray queries through instances: the same hits with and withou
     if (first.empty())
       first = plain;
     else
-      CHECK(std::memcmp(first.data(), plain.data(), plain.size() * sizeof(plain[0])) == 0);
+      CHECK(query_test::same_bytes(first, plain));
   }
 }

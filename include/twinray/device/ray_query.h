@@ -93,6 +93,17 @@ TR_FN_INLINE TrRay tr_query_ray(TR_GLOBAL const TrQueryRay* r) {
   return ray;
 }
 
+/* A triangle hit's (u, v): the barycentric coordinates of vertices 1 and 2, from the
+ * watertight test run once more on the ray that found it. */
+TR_FN_INLINE void tr_query_triangle_uv(TR_GLOBAL const TrTriangle* tri, TrRay ray, real* u,
+                                       real* v) {
+  TrTriangleRay tri_ray = tr_triangle_ray(ray);
+  vec3 bary = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
+  tr_triangle_t_bary(tri, ray, &tri_ray, &bary);
+  *u = bary.y;
+  *v = bary.z;
+}
+
 /* The surface parameters (u, v) of the nearest hit, whose record is *hit:
  *  - triangle: the barycentric coordinates of vertices 1 and 2 (the hit point is
  *    (1 - u - v) p0 + u p1 + v p2), from the same watertight test that found it;
@@ -122,11 +133,7 @@ TR_FN void tr_query_surface_uv(const TrSceneRef* s, TrRay ray, TrNearest nearest
     *u = x * TR_R(0.5) + TR_R(0.5);
     *v = y * TR_R(0.5) + TR_R(0.5);
   } else if (TR_HAS(TR_F_TRIANGLES) && prim < n_bounded) {
-    TrTriangleRay tri_ray = tr_triangle_ray(ray);
-    vec3 bary = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
-    tr_triangle_t_bary(&s->triangles[prim - n_spheres], ray, &tri_ray, &bary);
-    *u = bary.y;
-    *v = bary.z;
+    tr_query_triangle_uv(&s->triangles[prim - n_spheres], ray, u, v);
   } else if (TR_HAS(TR_F_PLANES)) {
     TR_GLOBAL const TrPlane* pl = &s->planes[prim - n_bounded];
     vec3 n = tr_plane_normal(pl);
@@ -174,17 +181,14 @@ TR_FN void tr_query_write(const TrSceneRef* s, TrRay ray, TrNearest nearest, int
     asset_nearest.instance = -1;
     int triangle = nearest.prim - s->params->n_spheres;
     vec3 n, ns = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
+    real tex_u = TR_R(0.0), tex_v = TR_R(0.0);
     int object; /* in an instance: the object's index in its asset */
     if (extra_flags == 0 && TR_HAS(TR_F_TRIANGLES) && triangle >= 0 &&
         triangle < s->params->n_triangles) {
-      /* A triangle with no extras asked: its barycentrics and normal, the same values
-       * the full record (tr_triangle_record) holds, without the rest of the record. */
+      /* A triangle with no extras asked: its (u, v) and normal, the same values the
+       * full record (tr_triangle_record) holds, without the rest of the record. */
       TR_GLOBAL const TrTriangle* tri = &s->triangles[triangle];
-      TrTriangleRay tri_ray = tr_triangle_ray(asset_ray);
-      vec3 bary = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
-      tr_triangle_t_bary(tri, asset_ray, &tri_ray, &bary);
-      h.u = bary.y;
-      h.v = bary.z;
+      tr_query_triangle_uv(tri, asset_ray, &h.u, &h.v);
       n = tr_triangle_unit_normal(tri);
       object = tri->object;
       if (in_instance) n = tr_instance_normal(&s->instances[nearest.instance], n);
@@ -196,8 +200,8 @@ TR_FN void tr_query_write(const TrSceneRef* s, TrRay ray, TrNearest nearest, int
       if (in_instance) tr_instance_hit_to_world(&s->instances[nearest.instance], &hit);
       n = hit.n;
       ns = hit.ns;
-      e.tex_u = hit.u;
-      e.tex_v = hit.v;
+      tex_u = hit.u;
+      tex_v = hit.v;
     }
     if (in_instance) h.instance = s->instances[nearest.instance].object;
     /* The normal faces the side the ray comes from. */
@@ -215,9 +219,9 @@ TR_FN void tr_query_write(const TrSceneRef* s, TrRay ray, TrNearest nearest, int
       e.sny = ns.y;
       e.snz = ns.z;
     }
-    if ((extra_flags & TR_QUERY_TEXTURE_UV) == 0) {
-      e.tex_u = TR_R(0.0);
-      e.tex_v = TR_R(0.0);
+    if ((extra_flags & TR_QUERY_TEXTURE_UV) != 0) {
+      e.tex_u = tex_u;
+      e.tex_v = tex_v;
     }
   }
   *out = h;
