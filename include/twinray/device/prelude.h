@@ -16,10 +16,12 @@
  *   TR_GLOBAL           address space of pointers into scene buffers
  *   TR_HAS(bit)         compile-time test of the Features mask (TR_FEATURES)
  *   TR_COUNT_RAY()      counts a ray query in benchmark builds (host only; else nothing)
- *   TR_SIMD_LOOP        before a loop over the lanes of a wide node: keeps g++ from
- *                       unrolling a short constant-trip loop into scalar code before its
- *                       vectorizer sees it (the 4-wide box loop stayed scalar); nothing
- *                       elsewhere
+ *   TR_SIMD_LOOP        before a loop over the lanes of a wide node: keeps the host
+ *                       compiler from unrolling a short constant-trip loop before its
+ *                       loop vectorizer sees it. Unrolled, g++ left the 4-wide box loop
+ *                       scalar, and clang 15 made the 8-wide one a 4-wide vector plus four
+ *                       scalar lanes put together by inserts; kept, both make one 8-lane
+ *                       vector per plane (docs/performance.md). Nothing on OpenCL
  *   TR_LANE_LOOP        before a loop over a packet's rays (one 16-ray group, or all of
  *                       them): TR_SIMD_LOOP under g++ (a group is one AVX-512 vector);
  *                       on an AVX-512 CPU under clang (PoCL, or the host), 16 lanes
@@ -144,6 +146,8 @@ typedef ulong tr_mask64;
 #endif
 #if defined(__GNUC__) && !defined(__clang__)
 #define TR_SIMD_LOOP _Pragma("GCC unroll 1")
+#elif defined(__clang__)
+#define TR_SIMD_LOOP _Pragma("clang loop unroll(disable)")
 #else
 #define TR_SIMD_LOOP
 #endif
