@@ -236,7 +236,7 @@ inline long long& ray_counter() {
  * no value. The host's prefetch instruction; nothing on OpenCL, whose devices hide a
  * load's latency with other work-items. */
 #ifdef TR_DEVICE
-#define TR_PREFETCH(p) ((void)0)
+#define TR_PREFETCH(p) ((void)(p))
 #else
 #define TR_PREFETCH(p) __builtin_prefetch((const void*)(p))
 #endif
