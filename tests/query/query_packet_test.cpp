@@ -3,7 +3,8 @@
 // directions share their signs as one packet, and each ray must get the very bytes the
 // single-ray walk gives it, for any tmin, tmax and mask, on ties, from inside spheres,
 // with bad rays among good ones and for batch sizes that are not whole packets. Each
-// case also checks that most of its rays did go through the packet walk.
+// case also checks that most of its rays did go through the packet walk, and the last
+// that the default walk takes a packet as one only where its directions are narrow.
 #include <doctest/doctest.h>
 
 #include <cmath>
@@ -61,8 +62,8 @@ Answers<T> answers(const PackedScene<T>& ps, const std::vector<Ray<T>>& rays, cp
 // The number of rays whose packet answers differ from the single-ray walk's, in any
 // byte of the hit, the extras or occluded's answer, for each way of making packets and
 // over several batch sizes (none a whole number of packets but 64 and 256); also checks
-// that the packet walk took at least `min_walked` of each batch's rays (both queries
-// counted).
+// that the walks that always make packets took at least `min_walked` of each batch's
+// rays (both queries counted).
 template <class T>
 size_t differences(const PackedScene<T>& ps, const std::vector<Ray<T>>& rays, double min_walked) {
   const Answers<T> one = answers(ps, rays, cpu::QueryWalk::RayByRay, rays.size());
@@ -75,7 +76,9 @@ size_t differences(const PackedScene<T>& ps, const std::vector<Ray<T>>& rays, do
       CAPTURE(static_cast<int>(walk));
       CAPTURE(batch);
       const Answers<T> pk = answers(ps, rays, walk, batch);
-      if (batch >= 37) CHECK(double(pk.walked) >= min_walked * 2.0 * double(rays.size()));
+      // The default walk takes only narrow packets as one (the last case checks which).
+      if (batch >= 37 && walk != cpu::QueryWalk::Packets)
+        CHECK(double(pk.walked) >= min_walked * 2.0 * double(rays.size()));
       for (size_t i = 0; i < rays.size(); ++i)
         wrong += std::memcmp(&pk.hits[i], &one.hits[i], sizeof(Hit<T>)) != 0 ||
                  std::memcmp(&pk.extras[i], &one.extras[i], sizeof(HitExtra<T>)) != 0 ||
@@ -288,4 +291,30 @@ TEST_CASE_TEMPLATE("packets give each ray the single-ray walk's answer: bad rays
   const double good = double(rays.size() - n_bad) / double(rays.size());
   CHECK(differences(ps, rays, 0.9 * good) == 0);
   CHECK(differences(ps, mixed, 0.6 * good) == 0);
+}
+
+TEST_CASE_TEMPLATE("the default walk takes narrow packets as one and fanned rays one by one", T,
+                   float, double) {
+  const PackedScene<T> ps = packed8(query_test::mixed_scene<T>(5u, 200));
+  // A camera's neighbouring rays: a 64 x 16 grid over a small patch, all (-, -, -).
+  const std::vector<Ray<T>> narrow =
+      grid_rays<T>(vec3<T>(9, 8, 10), vec3<T>(-1, -1, -7), vec3<T>(0, 0, -7), 64, 16);
+  // Rays of the same octant fanned out from four points, 256 from each, as ambient
+  // occlusion casts them.
+  std::vector<Ray<T>> fanned;
+  std::mt19937 rng(11u);
+  std::uniform_real_distribution<double> f(0.05, 1.0);
+  for (const vec3<T> eye :
+       {vec3<T>(9, 8, 10), vec3<T>(8, 9, 9), vec3<T>(10, 7, 8), vec3<T>(7, 7, 11)})
+    for (int k = 0; k < 256; ++k)
+      fanned.push_back(make_ray<T>(eye, vec3<T>(T(-f(rng)), T(-f(rng)), T(-f(rng)))));
+  CHECK(count_hits(ps, narrow) > narrow.size() / 2);
+  CHECK(count_hits(ps, fanned) > fanned.size() / 10);
+  CHECK(answers(ps, narrow, cpu::QueryWalk::Packets, narrow.size()).walked == 2 * narrow.size());
+  CHECK(answers(ps, fanned, cpu::QueryWalk::Packets, fanned.size()).walked == 0);
+  CHECK(answers(ps, fanned, cpu::QueryWalk::PacketsByOctant, fanned.size()).walked ==
+        2 * fanned.size());
+  // Whichever way they go, the answers are the single-ray walk's.
+  CHECK(differences(ps, narrow, 0.9) == 0);
+  CHECK(differences(ps, fanned, 0.9) == 0);
 }

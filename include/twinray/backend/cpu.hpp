@@ -103,8 +103,10 @@ void for_each_ray_chunk(size_t n, F&& chunk) {
 // How the CPU answers a batch of queries: Packets (what the backend does) walks up to
 // TR_PACKET_MAX rays at a time as one packet where their directions share their signs,
 // made of consecutive rays, or in runs of rays that mostly share their origins, of the
-// rays of one octant (device/ray_query.h, tr_query_intersect_rays); PacketsInOrder
-// always makes them of consecutive rays, PacketsByOctant always of one octant's rays;
+// rays of one octant (device/ray_query.h, tr_query_intersect_rays), and walks as one only
+// a packet whose directions are narrow (tr_query_packet_narrow); PacketsInOrder
+// always makes them of consecutive rays, PacketsByOctant always of one octant's rays, and
+// both walk every packet of one octant as one;
 // RayByRay walks every ray alone. The answers are the same bits either way
 // (tests/query).
 enum class QueryWalk { Packets, PacketsInOrder, PacketsByOctant, RayByRay };
