@@ -25,10 +25,14 @@
 #define TR_WALK_LEAVE (-2)
 #define TR_WALK_ENTER(i) (-3 - (i))
 
-/* Node `index` of the W-wide tree (types.h, "The BVH"): its boxes, 6 W reals, then its
- * links, 2 W ints (the room of 2 W reals in float, W in double). */
+/* The reals one node of the W-wide tree takes (types.h, "The BVH"): its boxes, 6 W
+ * reals, then its links, 2 W ints (the room of 2 W reals in float, W in double). */
+TR_FN_INLINE int tr_bvh_node_reals(int W) {
+  return 6 * W + 2 * W * (int)sizeof(int) / (int)sizeof(real);
+}
+/* Node `index` of the W-wide tree. */
 TR_FN_INLINE TR_GLOBAL const real* tr_bvh_node(const TrSceneRef* s, int index, int W) {
-  return s->bvh_nodes + index * (6 * W + 2 * W * (int)sizeof(int) / (int)sizeof(real));
+  return s->bvh_nodes + index * tr_bvh_node_reals(W);
 }
 /* The node's links: first[W], then count[W]. */
 TR_FN_INLINE TR_GLOBAL const int* tr_bvh_node_links(TR_GLOBAL const real* node, int W) {
@@ -46,12 +50,13 @@ TR_FN_INLINE void tr_prefetch_bytes(TR_GLOBAL const void* p, int bytes) {
  * are in that order (pack/pack.hpp), so where the scene holds spheres only or
  * triangles only the id is i itself, and the walks skip the read: a load that every
  * leaf's primitive tests waited on, from an array that does not fit in cache on large
- * scenes. */
+ * scenes. tr_bvh_prims_indirect: whether the read is needed (spheres and triangles). */
+TR_FN_INLINE int tr_bvh_prims_indirect(const TrSceneRef* s) {
+  return TR_HAS(TR_F_SPHERES) && TR_HAS(TR_F_TRIANGLES) && s->params->n_spheres > 0 &&
+         s->params->n_triangles > 0;
+}
 TR_FN_INLINE int tr_bvh_prim(const TrSceneRef* s, int i) {
-  if (TR_HAS(TR_F_SPHERES) && TR_HAS(TR_F_TRIANGLES) && s->params->n_spheres > 0 &&
-      s->params->n_triangles > 0)
-    return s->bvh_prims[i];
-  return i;
+  return tr_bvh_prims_indirect(s) ? s->bvh_prims[i] : i;
 }
 
 /* Asks for what the walk reads next from the children a ray enters (bits of `mask`,
@@ -62,9 +67,8 @@ TR_FN_INLINE int tr_bvh_prim(const TrSceneRef* s, int i) {
 TR_FN_INLINE void tr_prefetch_children(const TrSceneRef* s, unsigned mask,
                                        TR_GLOBAL const int* first, TR_GLOBAL const int* count,
                                        int W, int instances) {
-  int node_bytes = (6 * W) * (int)sizeof(real) + 2 * W * (int)sizeof(int);
-  int mixed = TR_HAS(TR_F_SPHERES) && TR_HAS(TR_F_TRIANGLES) && s->params->n_spheres > 0 &&
-              s->params->n_triangles > 0;
+  int node_bytes = tr_bvh_node_reals(W) * (int)sizeof(real);
+  int mixed = tr_bvh_prims_indirect(s);
   for (; mask != 0u; mask &= mask - 1u) {
     int k = TR_LOWEST_BIT(mask), n = count[k];
     if (n == 0) {
