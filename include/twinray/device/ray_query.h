@@ -342,41 +342,42 @@ TR_FN int tr_query_packet_load(TrQueryPacket* qp, TR_GLOBAL const TrQueryRay* in
   return n;
 }
 
-/* Whether the loaded packet's directions lie close enough together for one walk to
- * pay: each direction scaled to unit L1 length, no component spans more than 1/4 across
- * the packet. Rays of one octant that fan out (ambient occlusion's hemisphere from a few
- * points, diffuse bounces) walked 1.1-1.25 times as long as packets as one by one, where
- * a 1080p camera's neighbouring rays, far narrower, walked 0.5-0.65 times as long
- * (bench/ray_query_bench.cpp). The choice changes no answer. */
-TR_FN_INLINE int tr_query_packet_narrow(const TrRayPacket* pk) {
+/* Whether the directions of the rays in[pick[0 .. n)] lie close enough together for one
+ * walk to pay: each direction scaled to unit L1 length, no component spans more than
+ * 1/4 across them. Rays of one octant that fan out (ambient occlusion's hemisphere from
+ * a few points, diffuse bounces) walked 1.1-1.25 times as long as packets as one by
+ * one, where a 1080p camera's neighbouring rays, far narrower, walked 0.5-0.65 times as
+ * long (bench/ray_query_bench.cpp). Tested before the rays are loaded, and left at the
+ * first ray that widens a span past the limit: fanned rays go alone at little more than
+ * the cost of their grouping. The choice changes no answer. */
+TR_FN_INLINE int tr_query_rays_narrow(TR_GLOBAL const TrQueryRay* in, const int* pick, int n) {
   real lo_x = TR_R(1.0), lo_y = TR_R(1.0), lo_z = TR_R(1.0);
   real hi_x = TR_R(-1.0), hi_y = TR_R(-1.0), hi_z = TR_R(-1.0);
-  for (int r = 0; r < pk->n; ++r) {
-    real dx = pk->ray[r].d.x, dy = pk->ray[r].d.y, dz = pk->ray[r].d.z;
-    real scale = TR_R(1.0) / (tr_fabs(dx) + tr_fabs(dy) + tr_fabs(dz));
-    real x = dx * scale, y = dy * scale, z = dz * scale;
+  real limit = TR_R(0.25);
+  for (int k = 0; k < n; ++k) {
+    TR_GLOBAL const TrQueryRay* r = &in[pick[k]];
+    real scale = TR_R(1.0) / (tr_fabs(r->dx) + tr_fabs(r->dy) + tr_fabs(r->dz));
+    real x = r->dx * scale, y = r->dy * scale, z = r->dz * scale;
     lo_x = x < lo_x ? x : lo_x;
     lo_y = y < lo_y ? y : lo_y;
     lo_z = z < lo_z ? z : lo_z;
     hi_x = x > hi_x ? x : hi_x;
     hi_y = y > hi_y ? y : hi_y;
     hi_z = z > hi_z ? z : hi_z;
+    if (!((hi_x - lo_x <= limit) & (hi_y - lo_y <= limit) & (hi_z - lo_z <= limit))) return 0;
   }
-  real limit = TR_R(0.25);
-  return (hi_x - lo_x <= limit) & (hi_y - lo_y <= limit) & (hi_z - lo_z <= limit);
+  return 1;
 }
 
 /* The BVH part of the loaded packet's queries: closest hit, each ray's nearest (t,
  * primitive) in pk->t and pk->prim; any hit, pk->t[r] < 0 where ray r is blocked. As
  * one packet where the rays are coherent (returns 1; rays of one octant are, but for an
- * infinite reciprocal of a tiny component) and, with narrow_only 1, narrow
- * (tr_query_packet_narrow), else ray by ray
- * (tr_bvh_walk_query, as tr_query_search walks it). */
-TR_FN_INLINE int tr_query_packet_bvh(const TrSceneRef* s, TrQueryPacket* qp, int any_hit,
-                                     int narrow_only) {
+ * infinite reciprocal of a tiny component), else ray by ray (tr_bvh_walk_query, as
+ * tr_query_search walks it). */
+TR_FN_INLINE int tr_query_packet_bvh(const TrSceneRef* s, TrQueryPacket* qp, int any_hit) {
   TrRayPacket* pk = &qp->packet;
   if (pk->n <= 0) return 0;
-  if ((!narrow_only || tr_query_packet_narrow(pk)) && tr_packet_begin(pk)) {
+  if (tr_packet_begin(pk)) {
     tr_mask64 active = pk->n >= 64 ? ~(tr_mask64)0 : ((tr_mask64)1 << pk->n) - 1;
     tr_packet_walk_masked(s, pk, active, any_hit, 8, 1, &qp->lanes);
     return 1;
@@ -415,9 +416,14 @@ TR_FN_INLINE int tr_query_rays(const TrSceneRef* s, TrQueryPacket* qp,
     for (int k = 0; k < 8; ++k)
       for (int j = qp->group_start[k]; j < qp->group_start[k + 1]; j += TR_PACKET_MAX) {
         int end = qp->group_start[k + 1];
-        tr_query_packet_load(qp, run, &qp->order[j],
-                             end - j < TR_PACKET_MAX ? end - j : TR_PACKET_MAX);
-        if (tr_query_packet_bvh(s, qp, any_hit, by_octant == 2)) walked += pk->n;
+        const int* pick = &qp->order[j];
+        int n_pick = end - j < TR_PACKET_MAX ? end - j : TR_PACKET_MAX;
+        if (by_octant == 2 && !tr_query_rays_narrow(run, pick, n_pick)) {
+          for (int r = 0; r < n_pick; ++r) qp->octant[pick[r]] = -1; /* they go alone */
+          continue;
+        }
+        tr_query_packet_load(qp, run, pick, n_pick);
+        if (tr_query_packet_bvh(s, qp, any_hit)) walked += pk->n;
         for (int r = 0; r < pk->n; ++r) {
           int i = at + qp->index[r];
           TrNearest nearest;
@@ -448,7 +454,7 @@ TR_FN_INLINE int tr_query_rays(const TrSceneRef* s, TrQueryPacket* qp,
 
 /* tr_query_intersect for each of the rays in[0 .. n), in packets (tr_query_rays; by_octant:
  * 0 never by octant, 1 always, 2 where rays share their origins, and then only packets
- * whose directions are narrow, tr_query_packet_narrow). */
+ * whose directions are narrow, tr_query_rays_narrow). */
 TR_FN int tr_query_intersect_rays(const TrSceneRef* s, TrQueryPacket* qp,
                                   TR_GLOBAL const TrQueryRay* in, int n, TR_GLOBAL TrQueryHit* out,
                                   TR_GLOBAL TrQueryExtras* extras, int extra_flags, int by_octant) {
