@@ -246,8 +246,8 @@ TR_FN_INLINE TrBoxRay tr_box_ray(TrRay ray) {
  * and the result whether it does so before tmax. A NaN distance fails its compare and
  * narrows nothing. Every box test (tr_ray_hits_boxes, and a packet's in bvh_packet.h)
  * ends here. */
-TR_FN_INLINE int tr_slab_enters(real nx, real ny, real nz, real fx, real fy, real fz, real tmax,
-                                real* t_entry) {
+TR_FN_INLINE void tr_slab_interval(real nx, real ny, real nz, real fx, real fy, real fz, real tmax,
+                                   real* t_entry, real* t_exit) {
   real t0 = TR_R(0.0), t1 = tmax;
   t0 = nx > t0 ? nx : t0;
   t0 = ny > t0 ? ny : t0;
@@ -256,7 +256,13 @@ TR_FN_INLINE int tr_slab_enters(real nx, real ny, real nz, real fx, real fy, rea
   t1 = fy < t1 ? fy : t1;
   t1 = fz < t1 ? fz : t1;
   *t_entry = t0;
-  return t0 <= t1;
+  *t_exit = t1;
+}
+TR_FN_INLINE int tr_slab_enters(real nx, real ny, real nz, real fx, real fy, real fz, real tmax,
+                                real* t_entry) {
+  real t_exit;
+  tr_slab_interval(nx, ny, nz, fx, fy, fz, tmax, t_entry, &t_exit);
+  return *t_entry <= t_exit;
 }
 
 /* Whether a ray enters the box whose near planes (those its direction meets first, as
@@ -265,15 +271,21 @@ TR_FN_INLINE int tr_slab_enters(real nx, real ny, real nz, real fx, real fy, rea
  * inv_d_far (tr_box_ray), then tr_slab_enters. In scalars, so that a loop over a
  * node's boxes (tr_ray_hits_planes) or over a packet's rays (tr_packet_rays_in_box)
  * vectorizes on PoCL as well as in g++. */
-TR_FN_INLINE int tr_ray_enters_box(vec3 box_near, vec3 box_far, vec3 o, vec3 inv_d, vec3 inv_d_far,
-                                   real tmax, real* t_entry) {
+TR_FN_INLINE void tr_ray_box_interval(vec3 box_near, vec3 box_far, vec3 o, vec3 inv_d,
+                                      vec3 inv_d_far, real tmax, real* t_entry, real* t_exit) {
   real nx = (box_near.x - o.x) * inv_d.x;
   real ny = (box_near.y - o.y) * inv_d.y;
   real nz = (box_near.z - o.z) * inv_d.z;
   real fx = (box_far.x - o.x) * inv_d_far.x;
   real fy = (box_far.y - o.y) * inv_d_far.y;
   real fz = (box_far.z - o.z) * inv_d_far.z;
-  return tr_slab_enters(nx, ny, nz, fx, fy, fz, tmax, t_entry);
+  tr_slab_interval(nx, ny, nz, fx, fy, fz, tmax, t_entry, t_exit);
+}
+TR_FN_INLINE int tr_ray_enters_box(vec3 box_near, vec3 box_far, vec3 o, vec3 inv_d, vec3 inv_d_far,
+                                   real tmax, real* t_entry) {
+  real t_exit;
+  tr_ray_box_interval(box_near, box_far, o, inv_d, inv_d_far, tmax, t_entry, &t_exit);
+  return *t_entry <= t_exit;
 }
 
 /* The slab test of one wide node's W boxes (the Williams et al. 2005 slab method; see
@@ -289,16 +301,19 @@ TR_FN_INLINE int tr_ray_enters_box(vec3 box_near, vec3 box_far, vec3 o, vec3 inv
 TR_FN_INLINE unsigned tr_ray_hits_planes(const TrBoxPlanes* p, const TrBoxRay* br, real tmax_grown,
                                          int W, real* t_entry) {
   unsigned mask = 0u;
+  real t_exit[TR_BVH_MAX_WIDTH];
   TR_SIMD_LOOP
   for (int k = 0; k < W; ++k) {
     vec3 box_near = TR_VEC3(p->near_x[k], p->near_y[k], p->near_z[k]);
     vec3 box_far = TR_VEC3(p->far_x[k], p->far_y[k], p->far_z[k]);
-    /* The mask is set in this loop, not from a stored array of flags: g++ then builds
-     * it with one vector shift and OR reduction instead of extracting W scalars. */
-    mask |= (unsigned)tr_ray_enters_box(box_near, box_far, br->o, br->inv_d, br->inv_d_far,
-                                        tmax_grown, &t_entry[k])
-            << k;
+    tr_ray_box_interval(box_near, box_far, br->o, br->inv_d, br->inv_d_far, tmax_grown, &t_entry[k],
+                        &t_exit[k]);
+    /* Without the host's movemask, the mask is set in this loop, not from the stored
+     * intervals: g++ then builds it with one vector shift and OR reduction instead of
+     * extracting W scalars. */
+    if (!TR_HOST_LANE_MASKS) mask |= (unsigned)(t_entry[k] <= t_exit[k]) << k;
   }
+  if (TR_HOST_LANE_MASKS) mask = TR_LANES_LE(t_entry, t_exit, W);
   return mask;
 }
 
