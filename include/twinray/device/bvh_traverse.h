@@ -242,10 +242,11 @@ TR_FN_INLINE TrBoxRay tr_box_ray(TrRay ray) {
 }
 
 /* The end of a slab test, from a box's six slab distances (near planes nx, ny, nz, far
- * planes fx, fy, fz): *t_entry is where the ray enters the box (0 if it starts inside),
- * and the result whether it does so before tmax. A NaN distance fails its compare and
- * narrows nothing. Every box test (tr_ray_hits_boxes, and a packet's in bvh_packet.h)
- * ends here. */
+ * planes fx, fy, fz): *t_entry is where the ray enters the box (0 if it starts inside)
+ * and *t_exit where it leaves it (at most tmax); tr_slab_enters: whether it enters
+ * before tmax, *t_entry <= *t_exit. A NaN distance fails its compare and narrows
+ * nothing. Every box test (tr_ray_hits_boxes, and a packet's in bvh_packet.h) ends
+ * here. */
 TR_FN_INLINE void tr_slab_interval(real nx, real ny, real nz, real fx, real fy, real fz, real tmax,
                                    real* t_entry, real* t_exit) {
   real t0 = TR_R(0.0), t1 = tmax;
@@ -265,10 +266,11 @@ TR_FN_INLINE int tr_slab_enters(real nx, real ny, real nz, real fx, real fy, rea
   return *t_entry <= t_exit;
 }
 
-/* Whether a ray enters the box whose near planes (those its direction meets first, as
- * tr_slab_rows picks them) are box_near and far planes box_far, before tmax: the six slab
- * distances from the ray's origin o, reciprocal direction inv_d and its padded copy
- * inv_d_far (tr_box_ray), then tr_slab_enters. In scalars, so that a loop over a
+/* Where a ray enters and leaves the box whose near planes (those its direction meets
+ * first, as tr_slab_rows picks them) are box_near and far planes box_far, and
+ * (tr_ray_enters_box) whether it enters before tmax: the six slab distances from the
+ * ray's origin o, reciprocal direction inv_d and its padded copy inv_d_far
+ * (tr_box_ray), then tr_slab_interval. In scalars, so that a loop over a
  * node's boxes (tr_ray_hits_planes) or over a packet's rays (tr_packet_rays_in_box)
  * vectorizes on PoCL as well as in g++. */
 TR_FN_INLINE void tr_ray_box_interval(vec3 box_near, vec3 box_far, vec3 o, vec3 inv_d,
