@@ -249,8 +249,8 @@ inline long long& ray_counter() {
  * such a mask. Built in its loop, a bit per lane, neither host compiler makes the one
  * compare and movemask that x86 has for it: clang 15 selects a power of two per lane
  * and OR-reduces the vector (9 instructions in a row), g++ does the like. On x86 hosts
- * the mask is the movemask of the compare (the same bits; no value changes): 4-10%
- * faster single-ray walks (docs/performance.md). OpenCL and other hosts keep the loop. */
+ * the mask is the movemask of the compare (the same bits; no value changes): up to
+ * 11% faster one-ray walks (docs/performance.md). OpenCL and other hosts keep the loop. */
 #if !defined(TR_DEVICE) && (defined(__SSE2__) || defined(_M_X64))
 #include <immintrin.h>
 namespace twinray {
