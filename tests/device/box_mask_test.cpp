@@ -31,7 +31,7 @@ T pick_value(std::mt19937& rng) {
   const T specials[] = {T(0),
                         T(-0.0),
                         T(1),
-                        T(1),
+                        std::numeric_limits<T>::max(),
                         std::numeric_limits<T>::infinity(),
                         -std::numeric_limits<T>::infinity(),
                         std::numeric_limits<T>::quiet_NaN(),
