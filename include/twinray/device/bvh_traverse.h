@@ -466,7 +466,12 @@ TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nea
         continue;
       }
       if (!have_tri_ray) {
-        tri_ray = tr_triangle_ray(cur);
+        /* Made here, at the first leaf, not at the walk's start (TR_OPAQUE). */
+        real dx = cur.d.x, dy = cur.d.y, dz = cur.d.z;
+        TR_OPAQUE(dx);
+        TR_OPAQUE(dy);
+        TR_OPAQUE(dz);
+        tri_ray = tr_triangle_ray_dir(TR_VEC3(dx, dy, dz));
         have_tri_ray = 1;
       }
       for (int i = first[k]; i < first[k] + count[k]; ++i) {
