@@ -318,3 +318,39 @@ TEST_CASE_TEMPLATE("the default walk takes narrow packets as one and fanned rays
   CHECK(differences(ps, narrow, 0.9) == 0);
   CHECK(differences(ps, fanned, 0.9) == 0);
 }
+
+TEST_CASE_TEMPLATE("a run fans out where most neighbouring rays point apart", T, float, double) {
+  using K = typename device::Code<T>::template Kernel<TR_F_ALL>;
+  // A camera's neighbouring rays, and a LiDAR's beams from one point: close.
+  const std::vector<Ray<T>> camera =
+      grid_rays<T>(vec3<T>(9, 8, 10), vec3<T>(-7, -7, -7), vec3<T>(6, 5, -7), 64, 4);
+  CHECK(K::tr_query_run_fanned(camera.data(), 256) == 0);
+  CHECK(K::tr_query_run_fanned(camera.data(), 2) == 0);
+  std::vector<Ray<T>> lidar;
+  for (int k = 0; k < 256; ++k) {
+    const double a = 0.01 * k;
+    lidar.push_back(make_ray<T>(vec3<T>(1, 2, 3), vec3<T>(T(std::cos(a)), T(std::sin(a)), T(0.1))));
+  }
+  CHECK(K::tr_query_run_fanned(lidar.data(), 256) == 0);
+  // Ambient occlusion's hemispheres from a few points, and one random bounce per point.
+  std::mt19937 rng(5u);
+  std::uniform_real_distribution<double> f(-1.0, 1.0);
+  std::vector<Ray<T>> ao, diffuse;
+  for (int k = 0; k < 256; ++k) {
+    const vec3<T> d(T(f(rng)), T(f(rng)), T(0.05 + std::fabs(f(rng))));
+    ao.push_back(make_ray<T>(vec3<T>(T(k / 16), 0, 0), d));
+    diffuse.push_back(make_ray<T>(vec3<T>(T(k), T(2 * k), 0), d));
+  }
+  CHECK(K::tr_query_run_fanned(ao.data(), 256) == 1);
+  CHECK(K::tr_query_run_fanned(diffuse.data(), 256) == 1);
+  CHECK(K::tr_query_run_fanned(diffuse.data(), 37) == 1);
+  // Sixteen pairs, evenly over the run, decide: more than half of them close, not fanned.
+  std::vector<Ray<T>> mixed = camera;
+  for (int k = 200; k < 256; ++k) mixed[k] = ao[k];  // 12 of 16 pairs close
+  CHECK(K::tr_query_run_fanned(mixed.data(), 256) == 0);
+  mixed = camera;
+  for (int k = 60; k < 256; ++k) mixed[k] = ao[k];  // 3 of 16 close
+  CHECK(K::tr_query_run_fanned(mixed.data(), 256) == 1);
+  // One ray goes alone.
+  CHECK(K::tr_query_run_fanned(camera.data(), 1) == 1);
+}

@@ -293,23 +293,23 @@ TR_FN_INLINE vec3 tr_query_l1_direction(TR_GLOBAL const TrQueryRay* r) {
   return TR_VEC3(r->dx * scale, r->dy * scale, r->dz * scale);
 }
 
-/* Whether the rays in[0 .. m) fan out: at most half of up to 16 rays, spread evenly
- * over the run, point close to the ray before them (each L1-scaled component within
- * TR_QUERY_NARROW_SPAN). The hemisphere of ambient occlusion or of diffuse bounces
- * does; a camera's or a LiDAR's neighbouring rays do not. The default walk sends a
- * fanned run's rays alone, without grouping them: tr_query_rays_narrow would turn down
- * their packets one by one, and the grouping cost 15-20% of a lone ray's walk on
- * mesh_1e6's ambient occlusion (bench/ray_query_bench.cpp). */
+/* Whether the rays in[0 .. m) fan out: in at most half of 16 pairs of neighbouring rays
+ * (i - 1, i), spread evenly over the run (every pair of a shorter one), the two point
+ * close to each other (each L1-scaled component within TR_QUERY_NARROW_SPAN). The
+ * hemispheres of ambient occlusion and diffuse bounces fan out; a camera's or a LiDAR's
+ * neighbouring rays do not. The default walk sends a fanned run's rays alone without
+ * grouping them: tr_query_rays_narrow would turn their packets down one by one, and the
+ * grouping cost 15-20% of a lone ray's walk on mesh_1e6's ambient occlusion, one thread.
+ * A single ray goes alone. */
 TR_FN_INLINE int tr_query_run_fanned(TR_GLOBAL const TrQueryRay* in, int m) {
-  int step = m > 17 ? (m - 1) / 16 : 1;
-  int close = 0, pairs = 0;
-  for (int i = step; i < m; i += step) {
+  int pairs = m - 1 < 16 ? m - 1 : 16, close = 0;
+  for (int k = 1; k <= pairs; ++k) {
+    int i = k * (m - 1) / pairs; /* the pairs (i - 1, i), evenly over the run */
     vec3 u = tr_query_l1_direction(&in[i]), before = tr_query_l1_direction(&in[i - 1]);
     int near_x = tr_fabs(u.x - before.x) <= TR_QUERY_NARROW_SPAN;
     int near_y = tr_fabs(u.y - before.y) <= TR_QUERY_NARROW_SPAN;
     int near_z = tr_fabs(u.z - before.z) <= TR_QUERY_NARROW_SPAN;
     close += near_x & near_y & near_z;
-    ++pairs;
   }
   return 2 * close <= pairs;
 }
