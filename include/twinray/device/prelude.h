@@ -41,10 +41,6 @@
  *   TR_ALIGNED(n), TR_LINE_BYTES
  *                       aligns the struct or declaration it comes before to n bytes, and
  *                       a cache line's size: the packet's per-ray arrays start on a line
- *   TR_SCALAR_LOOP      before a loop over rays read from an array of structs (a query
- *                       run's rays): keeps clang from vectorizing it with gathers, which
- *                       took 8-12% of the default query walk's time on ambient
- *                       occlusion rays. Nothing on OpenCL and under g++
  *   TR_OPAQUE(x)        hides the value of the scalar lvalue x from the optimizer at this
  *                       point (an empty asm statement under clang on x86; nothing
  *                       elsewhere), so that what is computed from x stays in the branch
@@ -137,7 +133,6 @@ typedef ulong tr_mask64;
 #define TR_LOWEST_BIT64(m) (63 - (int)clz((m) & ((tr_mask64)0 - (m))))
 #define TR_POPCOUNT(m) ((int)popcount(m))
 #define TR_SIMD_LOOP
-#define TR_SCALAR_LOOP
 #define TR_OPAQUE(x) ((void)0)
 #ifndef TR_FEATURES
 #error "TR_FEATURES (the Features mask) must be passed as a build option"
@@ -171,11 +166,6 @@ typedef ulong tr_mask64;
 #endif
 #ifndef TR_LANE_LOOP
 #define TR_LANE_LOOP TR_SIMD_LOOP
-#endif
-#if defined(__clang__)
-#define TR_SCALAR_LOOP _Pragma("clang loop vectorize(disable)")
-#else
-#define TR_SCALAR_LOOP
 #endif
 #if defined(__clang__) && (defined(__x86_64__) || defined(__i386__))
 #define TR_OPAQUE(x) __asm__ volatile("" : "+x"(x))

@@ -275,22 +275,19 @@ TR_FN int tr_query_occluded(const TrSceneRef* s, TR_GLOBAL const TrQueryRay* in)
 
 /* The octant of a query ray's direction (bit 0: dx < 0, bit 1: dy < 0, bit 2: dz < 0),
  * or -1 where the ray is not valid or a component of its direction is 0 (such a ray
- * goes alone). Selects only: the grouping's loop over a run has no branch on it. */
+ * goes alone). */
 TR_FN_INLINE int tr_query_octant(TR_GLOBAL const TrQueryRay* r) {
-  int zero_x = r->dx == TR_R(0.0), zero_y = r->dy == TR_R(0.0), zero_z = r->dz == TR_R(0.0);
-  int alone = (tr_query_ray_valid(r) ^ 1) | zero_x | zero_y | zero_z;
-  int octant =
-      (r->dx < TR_R(0.0) ? 1 : 0) | (r->dy < TR_R(0.0) ? 2 : 0) | (r->dz < TR_R(0.0) ? 4 : 0);
-  return alone ? -1 : octant;
+  if (!tr_query_ray_valid(r) || r->dx == TR_R(0.0) || r->dy == TR_R(0.0) || r->dz == TR_R(0.0))
+    return -1;
+  return (r->dx < TR_R(0.0) ? 1 : 0) | (r->dy < TR_R(0.0) ? 2 : 0) | (r->dz < TR_R(0.0) ? 4 : 0);
 }
 
-/* A query ray's direction scaled to unit L1 length, where tr_query_rays_narrow measures
- * how far directions spread, and the widest spread per component a packet walk pays
- * for. */
+/* The factor that scales a query ray's direction to unit L1 length, where
+ * tr_query_rays_narrow and tr_query_run_fanned measure how far directions spread, and
+ * the widest spread per component a packet walk pays for. */
 #define TR_QUERY_NARROW_SPAN TR_R(0.25)
-TR_FN_INLINE vec3 tr_query_l1_direction(TR_GLOBAL const TrQueryRay* r) {
-  real scale = TR_R(1.0) / (tr_fabs(r->dx) + tr_fabs(r->dy) + tr_fabs(r->dz));
-  return TR_VEC3(r->dx * scale, r->dy * scale, r->dz * scale);
+TR_FN_INLINE real tr_query_l1_scale(TR_GLOBAL const TrQueryRay* r) {
+  return TR_R(1.0) / (tr_fabs(r->dx) + tr_fabs(r->dy) + tr_fabs(r->dz));
 }
 
 /* Whether the rays in[0 .. m) fan out: in at most half of 16 pairs of neighbouring rays
@@ -305,10 +302,12 @@ TR_FN_INLINE int tr_query_run_fanned(TR_GLOBAL const TrQueryRay* in, int m) {
   int pairs = m - 1 < 16 ? m - 1 : 16, close = 0;
   for (int k = 1; k <= pairs; ++k) {
     int i = k * (m - 1) / pairs; /* the pairs (i - 1, i), evenly over the run */
-    vec3 u = tr_query_l1_direction(&in[i]), before = tr_query_l1_direction(&in[i - 1]);
-    int near_x = tr_fabs(u.x - before.x) <= TR_QUERY_NARROW_SPAN;
-    int near_y = tr_fabs(u.y - before.y) <= TR_QUERY_NARROW_SPAN;
-    int near_z = tr_fabs(u.z - before.z) <= TR_QUERY_NARROW_SPAN;
+    TR_GLOBAL const TrQueryRay* a = &in[i - 1];
+    TR_GLOBAL const TrQueryRay* b = &in[i];
+    real scale_a = tr_query_l1_scale(a), scale_b = tr_query_l1_scale(b);
+    int near_x = tr_fabs(b->dx * scale_b - a->dx * scale_a) <= TR_QUERY_NARROW_SPAN;
+    int near_y = tr_fabs(b->dy * scale_b - a->dy * scale_a) <= TR_QUERY_NARROW_SPAN;
+    int near_z = tr_fabs(b->dz * scale_b - a->dz * scale_a) <= TR_QUERY_NARROW_SPAN;
     close += near_x & near_y & near_z;
   }
   return 2 * close <= pairs;
@@ -322,19 +321,22 @@ TR_FN_INLINE int tr_query_run_fanned(TR_GLOBAL const TrQueryRay* in, int m) {
  * With by_octant -1 every ray goes alone. */
 TR_FN void tr_query_group_run(TrQueryPacket* qp, TR_GLOBAL const TrQueryRay* in, int m,
                               int by_octant) {
+  if (by_octant < 0) {
+    for (int i = 0; i < m; ++i) qp->octant[i] = -1;
+    for (int k = 0; k <= 8; ++k) qp->group_start[k] = 0;
+    return;
+  }
   int count[8];
   for (int k = 0; k < 8; ++k) count[k] = 0;
   int shared = 0;
-  TR_SCALAR_LOOP
   for (int i = 0; i < m; ++i) {
-    int o = by_octant < 0 ? -1 : tr_query_octant(&in[i]);
+    int o = tr_query_octant(&in[i]);
     qp->octant[i] = o;
+    if (o >= 0) ++count[o];
     if (i > 0)
       shared +=
           (in[i].ox == in[i - 1].ox) & (in[i].oy == in[i - 1].oy) & (in[i].oz == in[i - 1].oz);
   }
-  for (int i = 0; i < m; ++i)
-    if (qp->octant[i] >= 0) ++count[qp->octant[i]];
   int sort = by_octant == 1 || (by_octant == 2 && 2 * shared > m);
   if (!sort) {
     for (int k = 1; k < 8; ++k) {
@@ -389,13 +391,15 @@ TR_FN_INLINE int tr_query_rays_narrow(TR_GLOBAL const TrQueryRay* in, const int*
   real hi_x = TR_R(-1.0), hi_y = TR_R(-1.0), hi_z = TR_R(-1.0);
   real limit = TR_QUERY_NARROW_SPAN;
   for (int k = 0; k < n; ++k) {
-    vec3 u = tr_query_l1_direction(&in[pick[k]]);
-    lo_x = u.x < lo_x ? u.x : lo_x;
-    lo_y = u.y < lo_y ? u.y : lo_y;
-    lo_z = u.z < lo_z ? u.z : lo_z;
-    hi_x = u.x > hi_x ? u.x : hi_x;
-    hi_y = u.y > hi_y ? u.y : hi_y;
-    hi_z = u.z > hi_z ? u.z : hi_z;
+    TR_GLOBAL const TrQueryRay* r = &in[pick[k]];
+    real scale = tr_query_l1_scale(r);
+    real x = r->dx * scale, y = r->dy * scale, z = r->dz * scale;
+    lo_x = x < lo_x ? x : lo_x;
+    lo_y = y < lo_y ? y : lo_y;
+    lo_z = z < lo_z ? z : lo_z;
+    hi_x = x > hi_x ? x : hi_x;
+    hi_y = y > hi_y ? y : hi_y;
+    hi_z = z > hi_z ? z : hi_z;
     if (!((hi_x - lo_x <= limit) & (hi_y - lo_y <= limit) & (hi_z - lo_z <= limit))) return 0;
   }
   return 1;
@@ -428,18 +432,6 @@ TR_FN_INLINE int tr_query_packet_bvh(const TrSceneRef* s, TrQueryPacket* qp, int
   return 0;
 }
 
-/* The answer of ray in[i] alone: its closest hit into out[i] (and where extra_flags
- * asks, extras[i]), or with any_hit 1 (a constant) whether it is blocked into
- * blocked[i]. */
-TR_FN_INLINE void tr_query_alone(const TrSceneRef* s, TR_GLOBAL const TrQueryRay* in, int i,
-                                 TR_GLOBAL TrQueryHit* out, TR_GLOBAL TrQueryExtras* extras,
-                                 int extra_flags, TR_GLOBAL unsigned char* blocked, int any_hit) {
-  if (any_hit)
-    blocked[i] = (unsigned char)(tr_query_occluded(s, &in[i]) ? 1 : 0);
-  else
-    tr_query_intersect(s, &in[i], &out[i], extra_flags != 0 ? &extras[i] : extras, extra_flags);
-}
-
 /* The answers of the rays in[0 .. n), in packets where the scene has an 8-wide BVH,
  * grouped as tr_query_group_run groups them: closest hits into out[i] (and where
  * extra_flags asks, extras[i]) as tr_query_intersect gives them, or with any_hit 1 (a
@@ -458,11 +450,6 @@ TR_FN_INLINE int tr_query_rays(const TrSceneRef* s, TrQueryPacket* qp,
      * where the walk is left to choose. */
     int grouping = tr_use(s, TR_F_BVH8) && !tr_use(s, TR_F_INSTANCES) ? by_octant : -1;
     if (grouping == 2 && tr_query_run_fanned(run, m)) grouping = -1;
-    if (grouping < 0) {
-      for (int i = at; i < at + m; ++i)
-        tr_query_alone(s, in, i, out, extras, extra_flags, blocked, any_hit);
-      continue;
-    }
     tr_query_group_run(qp, run, m, grouping);
     for (int k = 0; k < 8; ++k)
       for (int j = qp->group_start[k]; j < qp->group_start[k + 1]; j += TR_PACKET_MAX) {
@@ -491,9 +478,14 @@ TR_FN_INLINE int tr_query_rays(const TrSceneRef* s, TrQueryPacket* qp,
                            extra_flags != 0 ? &extras[i] : extras, extra_flags);
         }
       }
-    for (int i = 0; i < m; ++i)
-      if (qp->octant[i] < 0)
-        tr_query_alone(s, in, at + i, out, extras, extra_flags, blocked, any_hit);
+    for (int i = 0; i < m; ++i) {
+      if (qp->octant[i] >= 0) continue;
+      if (any_hit)
+        blocked[at + i] = (unsigned char)(tr_query_occluded(s, &run[i]) ? 1 : 0);
+      else
+        tr_query_intersect(s, &run[i], &out[at + i], extra_flags != 0 ? &extras[at + i] : extras,
+                           extra_flags);
+    }
   }
   return walked;
 }
