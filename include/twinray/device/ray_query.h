@@ -296,7 +296,7 @@ TR_FN_INLINE real tr_query_l1_scale(TR_GLOBAL const TrQueryRay* r) {
  * hemispheres of ambient occlusion and diffuse bounces fan out; a camera's or a LiDAR's
  * neighbouring rays do not. The default walk sends a fanned run's rays alone without
  * grouping them: tr_query_rays_narrow would turn their packets down one by one, and the
- * grouping cost 15-20% of a lone ray's walk on mesh_1e6's ambient occlusion, one thread.
+ * grouping cost 12-20% of a lone ray's walk on mesh_1e6's ambient occlusion, one thread.
  * A single ray goes alone. */
 TR_FN_INLINE int tr_query_run_fanned(TR_GLOBAL const TrQueryRay* in, int m) {
   int pairs = m - 1 < 16 ? m - 1 : 16, close = 0;
