@@ -282,37 +282,6 @@ TR_FN_INLINE int tr_query_octant(TR_GLOBAL const TrQueryRay* r) {
   return (r->dx < TR_R(0.0) ? 1 : 0) | (r->dy < TR_R(0.0) ? 2 : 0) | (r->dz < TR_R(0.0) ? 4 : 0);
 }
 
-/* The factor that scales a query ray's direction to unit L1 length, where
- * tr_query_rays_narrow and tr_query_run_fanned measure how far directions spread, and
- * the widest spread per component a packet walk pays for. */
-#define TR_QUERY_NARROW_SPAN TR_R(0.25)
-TR_FN_INLINE real tr_query_l1_scale(TR_GLOBAL const TrQueryRay* r) {
-  return TR_R(1.0) / (tr_fabs(r->dx) + tr_fabs(r->dy) + tr_fabs(r->dz));
-}
-
-/* Whether the rays in[0 .. m) fan out: in at most half of 16 pairs of neighbouring rays
- * (i - 1, i), spread evenly over the run (every pair of a shorter one), the two point
- * close to each other (each L1-scaled component within TR_QUERY_NARROW_SPAN). The
- * hemispheres of ambient occlusion and diffuse bounces fan out; a camera's or a LiDAR's
- * neighbouring rays do not. The default walk sends a fanned run's rays alone without
- * grouping them: tr_query_rays_narrow would turn their packets down one by one, and the
- * grouping cost 12-20% of a lone ray's walk on mesh_1e6's ambient occlusion, one thread.
- * A single ray goes alone. */
-TR_FN_INLINE int tr_query_run_fanned(TR_GLOBAL const TrQueryRay* in, int m) {
-  int pairs = m - 1 < 16 ? m - 1 : 16, close = 0;
-  for (int k = 1; k <= pairs; ++k) {
-    int i = k * (m - 1) / pairs; /* the pairs (i - 1, i), evenly over the run */
-    TR_GLOBAL const TrQueryRay* a = &in[i - 1];
-    TR_GLOBAL const TrQueryRay* b = &in[i];
-    real scale_a = tr_query_l1_scale(a), scale_b = tr_query_l1_scale(b);
-    int near_x = tr_fabs(b->dx * scale_b - a->dx * scale_a) <= TR_QUERY_NARROW_SPAN;
-    int near_y = tr_fabs(b->dy * scale_b - a->dy * scale_a) <= TR_QUERY_NARROW_SPAN;
-    int near_z = tr_fabs(b->dz * scale_b - a->dz * scale_a) <= TR_QUERY_NARROW_SPAN;
-    close += near_x & near_y & near_z;
-  }
-  return 2 * close <= pairs;
-}
-
 /* Puts the rays of in[0 .. m), m <= TR_QUERY_RUN, that have an octant into qp->order,
  * in groups qp->order[qp->group_start[k] .. qp->group_start[k + 1]) for k < 8, each
  * in the batch's order; qp->octant[i] is ray i's octant (-1: alone). The groups are the
@@ -389,10 +358,10 @@ TR_FN int tr_query_packet_load(TrQueryPacket* qp, TR_GLOBAL const TrQueryRay* in
 TR_FN_INLINE int tr_query_rays_narrow(TR_GLOBAL const TrQueryRay* in, const int* pick, int n) {
   real lo_x = TR_R(1.0), lo_y = TR_R(1.0), lo_z = TR_R(1.0);
   real hi_x = TR_R(-1.0), hi_y = TR_R(-1.0), hi_z = TR_R(-1.0);
-  real limit = TR_QUERY_NARROW_SPAN;
+  real limit = TR_R(0.25);
   for (int k = 0; k < n; ++k) {
     TR_GLOBAL const TrQueryRay* r = &in[pick[k]];
-    real scale = tr_query_l1_scale(r);
+    real scale = TR_R(1.0) / (tr_fabs(r->dx) + tr_fabs(r->dy) + tr_fabs(r->dz));
     real x = r->dx * scale, y = r->dy * scale, z = r->dz * scale;
     lo_x = x < lo_x ? x : lo_x;
     lo_y = y < lo_y ? y : lo_y;
@@ -403,6 +372,25 @@ TR_FN_INLINE int tr_query_rays_narrow(TR_GLOBAL const TrQueryRay* in, const int*
     if (!((hi_x - lo_x <= limit) & (hi_y - lo_y <= limit) & (hi_z - lo_z <= limit))) return 0;
   }
   return 1;
+}
+
+/* Whether the rays in[0 .. m) fan out: at most half of 16 pairs of neighbouring rays
+ * (i - 1, i), spread evenly over the run (every pair of a shorter one), are narrow as
+ * tr_query_rays_narrow has it. The hemispheres of ambient occlusion and diffuse bounces
+ * fan out; a camera's or a LiDAR's neighbouring rays do not. The default walk sends a
+ * fanned run's rays alone without grouping them: tr_query_rays_narrow would turn their
+ * packets down one by one, and the grouping cost 12-20% of a lone ray's walk on
+ * mesh_1e6's ambient occlusion, one thread. A single ray goes alone. */
+TR_FN_INLINE int tr_query_run_fanned(TR_GLOBAL const TrQueryRay* in, int m) {
+  int pairs = m - 1 < 16 ? m - 1 : 16, close = 0;
+  for (int k = 1; k <= pairs; ++k) {
+    int i = k * (m - 1) / pairs; /* the pairs (i - 1, i), evenly over the run */
+    int pick[2];
+    pick[0] = i - 1;
+    pick[1] = i;
+    close += tr_query_rays_narrow(in, pick, 2);
+  }
+  return 2 * close <= pairs;
 }
 
 /* The BVH part of the loaded packet's queries: closest hit, each ray's nearest (t,
