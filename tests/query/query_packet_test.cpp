@@ -209,6 +209,61 @@ TEST_CASE_TEMPLATE("packets give each ray the single-ray walk's answer: ties", T
   CHECK(differences(ps, rays, 0.9) == 0);
 }
 
+TEST_CASE_TEMPLATE("each hit's barycentrics belong to the face it reports, in every walk", T, float,
+                   double) {
+  // The walks keep the (u, v) of the test that found the nearest hit, and a tie that
+  // goes to another face takes that face's. Object 2 is object 0's mesh with each
+  // triangle's corners rotated, (p1, p2, p0): the same surface, found at the same t on
+  // most rays, where object 0 wins the tie, but with other barycentrics. Rays at the
+  // vertices and edges tie between faces of one mesh too. The point
+  // (1 - u - v) p0 + u p1 + v p2 from the reported face's own corners must be where
+  // the ray is at t; another face's (u, v) names another point of the triangle, or of
+  // its neighbour: an edge length (about 0.6) away. Tolerance: a few roundings of
+  // coordinates up to about 30 (the eye's distance), 256 ulps of 30.
+  Scene<T> s;
+  s.materials.push_back({});
+  const Mesh<T> ball = query_test::icosphere<T>(2, vec3<T>(0, 0, 0), T(2));
+  Mesh<T> rotated = ball;
+  for (auto& tri : rotated.triangles) tri = {tri[1], tri[2], tri[0]};
+  s.add(ball);                                      // object 0
+  s.add(Sphere<T>{vec3<T>(-4, 1, -1), T(1.5), 0});  // object 1
+  s.add(rotated);                                   // object 2
+  const Mesh<T>* meshes[3] = {&ball, nullptr, &rotated};
+  const PackedScene<T> ps = packed8(s);
+  const vec3<T> eye(12, 14, 16);
+  std::vector<vec3<T>> targets = ball.vertices;
+  for (auto e : query_test::edges(ball)) {
+    const vec3<T> a = ball.vertices[e.first], b = ball.vertices[e.second];
+    targets.push_back((a + b) * T(0.5));
+    targets.push_back(a + (b - a) * T(0.25));
+  }
+  std::vector<Ray<T>> rays;
+  for (const auto& p : targets) rays.push_back(make_ray<T>(eye, p - eye));
+  for (const auto& r : grid_rays<T>(eye, vec3<T>(-6, -3, -1), vec3<T>(3, 3, -1), 32, 32))
+    rays.push_back(r);
+  const T tolerance = T(256) * std::numeric_limits<T>::epsilon() * T(30);
+  for (cpu::QueryWalk walk : {cpu::QueryWalk::RayByRay, cpu::QueryWalk::Packets,
+                              cpu::QueryWalk::PacketsInOrder, cpu::QueryWalk::PacketsByOctant}) {
+    CAPTURE(static_cast<int>(walk));
+    std::vector<Hit<T>> h(rays.size());
+    cpu::query_intersect(ps, rays.data(), rays.size(), h.data(), 0, nullptr, walk);
+    size_t on_mesh[3] = {0, 0, 0}, off_face = 0;
+    for (size_t i = 0; i < rays.size(); ++i) {
+      if (h[i].object != 0 && h[i].object != 2) continue;
+      ++on_mesh[h[i].object];
+      const Mesh<T>& m = *meshes[h[i].object];
+      const auto& tri = m.triangles[size_t(h[i].primitive)];
+      const vec3<T> p = m.vertices[tri[0]] * (T(1) - h[i].u - h[i].v) +
+                        m.vertices[tri[1]] * h[i].u + m.vertices[tri[2]] * h[i].v;
+      const vec3<T> at = vec3<T>(rays[i].ox, rays[i].oy, rays[i].oz) +
+                         vec3<T>(rays[i].dx, rays[i].dy, rays[i].dz) * h[i].t;
+      off_face += glm::length(p - at) > tolerance;
+    }
+    CHECK(on_mesh[0] >= targets.size());  // object 0 wins most ties
+    CHECK(off_face == 0);
+  }
+}
+
 TEST_CASE_TEMPLATE("packets give each ray the single-ray walk's answer: from inside spheres", T,
                    float, double) {
   // Origins inside spheres: the hit is where the ray leaves, or with tmin past that, the

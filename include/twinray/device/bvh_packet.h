@@ -236,9 +236,10 @@ TR_FN_INLINE void tr_packet_offer(TrRayPacket* pk, int r, int hit, real t, int p
  * a smaller t, or any such t while the ray has no hit yet, is taken here; returns 1 for
  * a tie of t with the ray's nearest hit, which tr_query_precedes settles outside the
  * lanes (it reads both primitives' object and face). Any hit: such a t blocks the ray
- * (pk->t[r] = -1). */
+ * (pk->t[r] = -1). A nearer hit's (u, v) (a triangle's barycentrics) go to pk->u[r],
+ * pk->v[r]. */
 TR_FN_INLINE int tr_packet_query_offer(TrRayPacket* pk, const TrQueryLanes* q, int r, int hit,
-                                       int sees, real t, int prim, int any_hit) {
+                                       int sees, real t, int prim, int any_hit, real u, real v) {
   real t_r = pk->t[r];
   int prim_r = pk->prim[r];
   int counts = hit & sees & (t > TR_R(0.0)) & (t >= q->tmin[r]) & (t <= t_r);
@@ -247,14 +248,29 @@ TR_FN_INLINE int tr_packet_query_offer(TrRayPacket* pk, const TrQueryLanes* q, i
   int nearer = (any_hit == 0) & counts & first;
   pk->t[r] = blocked ? TR_R(-1.0) : nearer ? t : t_r;
   pk->prim[r] = nearer ? prim : prim_r;
+  if (!any_hit) {
+    pk->u[r] = nearer ? u : pk->u[r];
+    pk->v[r] = nearer ? v : pk->v[r];
+  }
   return (any_hit == 0) & counts & !first;
 }
 
 /* A tie of primitive prim's t with ray r's nearest hit (tr_packet_query_offer): prim
- * takes it where it comes first in tr_query_precedes's order of (object, face). */
+ * takes it where it comes first in tr_query_precedes's order of (object, face), and a
+ * triangle's barycentrics come from the ray's own test of it (the lanes' values: the
+ * same operations). */
 TR_FN_INLINE void tr_packet_query_tie(const TrSceneRef* s, TrRayPacket* pk, const TrQueryLanes* q,
                                       int r, int prim) {
-  if (tr_query_precedes(s, pk->t[r], prim, q->tmin[r], pk->t[r], pk->prim[r])) pk->prim[r] = prim;
+  if (!tr_query_precedes(s, pk->t[r], prim, q->tmin[r], pk->t[r], pk->prim[r])) return;
+  pk->prim[r] = prim;
+  int triangle = prim - s->params->n_spheres;
+  if (TR_HAS(TR_F_TRIANGLES) && triangle >= 0) {
+    TrTriangleRay tri_ray = tr_packet_triangle_ray(pk, r);
+    vec3 bary = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
+    tr_triangle_t_bary(&s->triangles[triangle], pk->ray[r], &tri_ray, &bary);
+    pk->u[r] = bary.y;
+    pk->v[r] = bary.z;
+  }
 }
 
 /* Whether ray r of a query packet sees an object of mask object_mask (tr_query_skips);
@@ -285,8 +301,9 @@ TR_FN_INLINE unsigned tr_packet_triangle_lanes_of(TrRayPacket* pk, vec3 p0, vec3
     int hit = enter[r] & tr_triangle_hit_at(p0, p1, p2, TR_VEC3(pk->ox[r], pk->oy[r], pk->oz[r]),
                                             &tri_ray, 0, may_straddle, &t, &bary);
     if (query)
-      ties |= (unsigned)tr_packet_query_offer(
-                  pk, q, r, hit, tr_packet_query_sees(q, r, masks, object_mask), t, prim, any_hit)
+      ties |= (unsigned)tr_packet_query_offer(pk, q, r, hit,
+                                              tr_packet_query_sees(q, r, masks, object_mask), t,
+                                              prim, any_hit, bary.y, bary.z)
               << (r - g);
     else
       tr_packet_offer(pk, r, hit, t, prim, any_hit);
@@ -327,8 +344,9 @@ TR_FN_INLINE unsigned tr_packet_sphere_lanes(const TrSceneRef* s, TrRayPacket* p
     if (query) {
       int hit =
           enter[r] & tr_sphere_hit_from(center, radius, tr_packet_ray(pk, r), 0, 1, q->tmin[r], &t);
-      ties |= (unsigned)tr_packet_query_offer(
-                  pk, q, r, hit, tr_packet_query_sees(q, r, masks, object_mask), t, prim, any_hit)
+      ties |= (unsigned)tr_packet_query_offer(pk, q, r, hit,
+                                              tr_packet_query_sees(q, r, masks, object_mask), t,
+                                              prim, any_hit, TR_R(0.0), TR_R(0.0))
               << (r - g);
     } else {
       int hit = enter[r] & tr_sphere_hit_at(center, radius, tr_packet_ray(pk, r), 0, &t);
@@ -391,10 +409,13 @@ TR_FN_INLINE void tr_packet_leaf(const TrSceneRef* s, TrRayPacket* pk, int first
       if (query) {
         /* tr_bvh_walk_wide's leaf step for one query ray */
         if (!tr_packet_query_sees(q, r, masks, object_mask)) continue;
-        real t = tr_primitive_t_from(s, prim, pk->ray[r], &tri_ray, q->tmin[r]);
+        vec3 bary = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
+        real t = tr_primitive_t_from(s, prim, pk->ray[r], &tri_ray, q->tmin[r], &bary);
         if (tr_query_precedes(s, t, prim, q->tmin[r], pk->t[r], pk->prim[r])) {
           pk->t[r] = any_hit ? TR_R(-1.0) : t;
           pk->prim[r] = any_hit ? pk->prim[r] : prim;
+          pk->u[r] = bary.y;
+          pk->v[r] = bary.z;
         }
         continue;
       }
@@ -403,10 +424,7 @@ TR_FN_INLINE void tr_packet_leaf(const TrSceneRef* s, TrRayPacket* pk, int first
         if (t > TR_R(0.0) && t < pk->t[r]) pk->t[r] = TR_R(-1.0);
         continue;
       }
-      TrNearest nearest;
-      nearest.t = pk->t[r];
-      nearest.prim = pk->prim[r];
-      nearest.instance = -1;
+      TrNearest nearest = tr_nearest(pk->t[r], pk->prim[r]);
       tr_offer_hit(&nearest, t, prim);
       pk->t[r] = nearest.t;
       pk->prim[r] = nearest.prim;
@@ -595,10 +613,7 @@ TR_FN_NOINLINE void tr_bvh_nearest(const TrSceneRef* s, const TrRay* ray, TrNear
 }
 
 TR_FN_NOINLINE int tr_bvh_blocked(const TrSceneRef* s, const TrRay* ray, real tmax) {
-  TrNearest limit;
-  limit.t = tmax;
-  limit.prim = -1;
-  limit.instance = -1;
+  TrNearest limit = tr_nearest(tmax, -1);
   return tr_bvh_walk(s, *ray, &limit, 1);
 }
 
@@ -628,10 +643,7 @@ TR_FN void tr_packet_bvh(const TrSceneRef* s, TrRayPacket* pk, int coherent, int
       if (pk->t[r] >= TR_R(0.0) && tr_bvh_blocked(s, &pk->ray[r], pk->t[r])) pk->t[r] = TR_R(-1.0);
       continue;
     }
-    TrNearest nearest;
-    nearest.t = pk->t[r];
-    nearest.prim = pk->prim[r];
-    nearest.instance = -1;
+    TrNearest nearest = tr_nearest(pk->t[r], pk->prim[r]);
     tr_bvh_nearest(s, &pk->ray[r], &nearest);
     pk->t[r] = nearest.t;
     pk->prim[r] = nearest.prim;

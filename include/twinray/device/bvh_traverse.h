@@ -95,14 +95,26 @@ TR_FN_INLINE real tr_primitive_t(const TrSceneRef* s, int prim, TrRay ray,
   return TR_R(0.0);
 }
 
-/* The same for a ray query: a sphere's first crossing from tmin on. */
+/* The same for a ray query: a sphere's first crossing from tmin on; a triangle's
+ * barycentrics in *bary where it is hit (left as they are elsewhere). */
 TR_FN_INLINE real tr_primitive_t_from(const TrSceneRef* s, int prim, TrRay ray,
-                                      const TrTriangleRay* tri_ray, real tmin) {
+                                      const TrTriangleRay* tri_ray, real tmin, vec3* bary) {
   int n_spheres = s->params->n_spheres;
   if (TR_HAS(TR_F_SPHERES) && prim < n_spheres)
     return tr_sphere_t_from(&s->spheres[prim], ray, tmin);
-  if (TR_HAS(TR_F_TRIANGLES)) return tr_triangle_t(&s->triangles[prim - n_spheres], ray, tri_ray);
+  if (TR_HAS(TR_F_TRIANGLES))
+    return tr_triangle_t_bary(&s->triangles[prim - n_spheres], ray, tri_ray, bary);
   return TR_R(0.0);
+}
+
+/* A nearest hit to start a walk from, or to carry one over: distance t (the ray's tmax
+ * while prim is -1), outside instances. */
+TR_FN_INLINE TrNearest tr_nearest(real t, int prim) {
+  TrNearest n;
+  n.t = t;
+  n.prim = prim;
+  n.instance = -1;
+  return n;
 }
 
 /* Keeps (t, prim) if it comes before the nearest hit so far in the order of t, then
@@ -396,9 +408,9 @@ TR_FN_INLINE int tr_walk_next(unsigned inner, const real* t_entry, TR_GLOBAL con
  * only saves work. Stack: at most W - 1 entries per inner node on the path
  * (TR_BVH_STACK_SIZE). The triangle test's view of the ray is made at the first leaf:
  * many rays miss every box. With `query` 1 (a constant: ray queries, ray_query.h) the
- * leaves take hits in [tmin, nearest->t] in tr_query_precedes's order and skip the
- * objects ray_mask excludes; the renderer passes 0, which leaves none of that in its
- * walk.
+ * leaves take hits in [tmin, nearest->t] in tr_query_precedes's order, keep the
+ * nearest triangle hit's barycentrics in uv[0 .. 2) and skip the objects ray_mask
+ * excludes; the renderer passes 0, which leaves none of that in its walk.
  * The walk starts at node `root`. With `instances` 1 (a constant) the tree is the top
  * level (TR_F_INSTANCES): its leaves list instances, each pushed as a mark; a mark
  * taken from the stack maps the ray into the instance's asset (instance.h), pushes a
@@ -407,7 +419,7 @@ TR_FN_INLINE int tr_walk_next(unsigned inner, const real* t_entry, TR_GLOBAL con
  * (t, instance, primitive) (tr_offer_hit_in). */
 TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nearest, int any_hit,
                                   int W, int query, real tmin, unsigned int ray_mask, int root,
-                                  int instances) {
+                                  int instances, real* uv) {
   if (root < 0) return 0;
   /* The ray the walk tests boxes and primitives with: the world's, or inside an
    * instance (inst >= 0) the asset's view of it (instance.h). */
@@ -477,7 +489,8 @@ TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nea
       for (int i = first[k]; i < first[k] + count[k]; ++i) {
         int prim = tr_bvh_prim(s, i);
         if (query && inst < 0 && tr_query_skips(s, prim, ray_mask)) continue;
-        real t = query ? tr_primitive_t_from(s, prim, cur, &tri_ray, tmin)
+        vec3 bary = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
+        real t = query ? tr_primitive_t_from(s, prim, cur, &tri_ray, tmin, &bary)
                        : tr_primitive_t(s, prim, cur, &tri_ray);
         if (query) {
           if (tr_query_precedes_in(s, t, inst, prim, tmin, nearest->t, nearest->instance,
@@ -486,6 +499,8 @@ TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nea
             nearest->t = t;
             nearest->prim = prim;
             nearest->instance = inst;
+            uv[0] = bary.y;
+            uv[1] = bary.z;
           }
         } else if (any_hit) {
           if (t > TR_R(0.0) && t < nearest->t) return 1;
@@ -530,14 +545,15 @@ TR_FN_INLINE int tr_bvh_walk_wide(const TrSceneRef* s, TrRay ray, TrNearest* nea
 /* The walk over the scene's own primitives, then (TR_F_INSTANCES) over its instances:
  * two trees, one walk each. */
 TR_FN_INLINE int tr_bvh_walk_roots(const TrSceneRef* s, TrRay ray, TrNearest* nearest, int any_hit,
-                                   int W, int query, real tmin, unsigned int ray_mask) {
+                                   int W, int query, real tmin, unsigned int ray_mask, real* uv) {
   int scene_root =
       TR_HAS(TR_F_INSTANCES) ? s->params->scene_root : (s->params->n_bvh_nodes > 0 ? 0 : -1);
-  int found = tr_bvh_walk_wide(s, ray, nearest, any_hit, W, query, tmin, ray_mask, scene_root, 0);
+  int found =
+      tr_bvh_walk_wide(s, ray, nearest, any_hit, W, query, tmin, ray_mask, scene_root, 0, uv);
   if (!TR_HAS(TR_F_INSTANCES)) return found;
   if (found && any_hit) return 1;
   found = tr_bvh_walk_wide(s, ray, nearest, any_hit, W, query, tmin, ray_mask,
-                           s->params->instance_root, 1);
+                           s->params->instance_root, 1, uv);
   return any_hit ? found : nearest->prim >= 0;
 }
 
@@ -547,23 +563,24 @@ TR_FN_INLINE int tr_bvh_walk_roots(const TrSceneRef* s, TrRay ray, TrNearest* ne
 TR_FN_INLINE int tr_bvh_walk(const TrSceneRef* s, TrRay ray, TrNearest* nearest, int any_hit) {
   unsigned int all = 0xffffffffu;
   if (tr_use(s, TR_F_BVH8))
-    return tr_bvh_walk_roots(s, ray, nearest, any_hit, 8, 0, TR_R(0.0), all);
+    return tr_bvh_walk_roots(s, ray, nearest, any_hit, 8, 0, TR_R(0.0), all, 0);
   if (tr_use(s, TR_F_BVH4))
-    return tr_bvh_walk_roots(s, ray, nearest, any_hit, 4, 0, TR_R(0.0), all);
+    return tr_bvh_walk_roots(s, ray, nearest, any_hit, 4, 0, TR_R(0.0), all, 0);
   if (tr_use(s, TR_F_BVH2))
-    return tr_bvh_walk_roots(s, ray, nearest, any_hit, 2, 0, TR_R(0.0), all);
+    return tr_bvh_walk_roots(s, ray, nearest, any_hit, 2, 0, TR_R(0.0), all, 0);
   return 0;
 }
 
 /* The walk of a ray query (ray_query.h): hits in [tmin, nearest->t] ordered by
- * tr_query_precedes, objects the ray's mask excludes skipped. */
+ * tr_query_precedes, objects the ray's mask excludes skipped; the nearest triangle
+ * hit's barycentrics of vertices 1 and 2 in uv[0], uv[1]. */
 TR_FN_INLINE int tr_bvh_walk_query(const TrSceneRef* s, TrRay ray, TrNearest* nearest, int any_hit,
-                                   real tmin, unsigned int ray_mask) {
+                                   real tmin, unsigned int ray_mask, real* uv) {
   if (tr_use(s, TR_F_BVH8))
-    return tr_bvh_walk_roots(s, ray, nearest, any_hit, 8, 1, tmin, ray_mask);
+    return tr_bvh_walk_roots(s, ray, nearest, any_hit, 8, 1, tmin, ray_mask, uv);
   if (tr_use(s, TR_F_BVH4))
-    return tr_bvh_walk_roots(s, ray, nearest, any_hit, 4, 1, tmin, ray_mask);
+    return tr_bvh_walk_roots(s, ray, nearest, any_hit, 4, 1, tmin, ray_mask, uv);
   if (tr_use(s, TR_F_BVH2))
-    return tr_bvh_walk_roots(s, ray, nearest, any_hit, 2, 1, tmin, ray_mask);
+    return tr_bvh_walk_roots(s, ray, nearest, any_hit, 2, 1, tmin, ray_mask, uv);
   return 0;
 }

@@ -38,15 +38,16 @@ TR_FN_INLINE TrTriangleRay tr_triangle_ray(TrRay ray) {
 
 /* Whether the ray from origin o hits the triangle p0 p1 p2; if so, the distance along
  * it in *t, > 0, and the barycentric coordinates of the hit in *bary.
- * Only t is read on the hot paths (the barycentrics are dead code there): the hit
- * record is made once per ray, for the nearest primitive (tr_triangle_record). t is
+ * The renderer's walks read only t (the barycentrics are dead code there): its hit
+ * record is made once per ray, for the nearest primitive (tr_triangle_record); ray
+ * queries keep the nearest hit's barycentrics as they walk (tr_bvh_walk_query). t is
  * not range-tested against the ray's tmax before the division, as Woop et al. do: the
  * caller compares the rounded t itself, so whether a triangle wins never depends on
  * what was found before it (scene_hit.h).
  * With `branches` 1 (one ray) the test returns at its first failed check. With 0 (a
  * constant, in a loop that runs a ray per SIMD lane: bvh_packet.h) it has no control
- * flow: every check is computed, *t is always set and *bary never. Both give the same
- * answer and t, from the same operations. No float3 arithmetic (tr_sub3,
+ * flow: every check is computed, *t and *bary are always set. Both give the same
+ * answer, t and barycentrics, from the same operations. No float3 arithmetic (tr_sub3,
  * tr_max_abs), so that PoCL vectorizes that loop too. `may_straddle` 0 (a constant)
  * says the caller knows that the vertices' ray-space depths az, bz, cz are all > 0
  * (tr_packet_hits_boxes's `ahead`), so the straddle bound below, which would then
@@ -116,7 +117,7 @@ TR_FN_INLINE int tr_triangle_hit_at(vec3 p0, vec3 p1, vec3 p2, vec3 o, const TrT
   vec3 normal = tr_cross(p1 - p0, p2 - p0);
   miss |= !(tr_dot(normal, normal) > TR_R(0.0));
   if (branches && miss) return 0;
-  if (branches) *bary = TR_VEC3(e0 * inv_det, e1 * inv_det, e2 * inv_det);
+  *bary = TR_VEC3(e0 * inv_det, e1 * inv_det, e2 * inv_det);
   *t_hit = t;
   return !miss;
 }

@@ -27,27 +27,30 @@ TR_FN_INLINE int tr_query_ray_valid(TR_GLOBAL const TrQueryRay* r) {
   return finite & nonzero & (r->tmax >= r->tmin) & (r->tmax >= TR_R(0.0));
 }
 
-/* Offers (t, prim) to a query's nearest hit (tr_query_precedes); 1 where an any-hit
+/* Offers (t, prim) to a query's nearest hit (tr_query_precedes), with a triangle's
+ * barycentrics bary (kept in uv as tr_bvh_walk_query keeps them); 1 where an any-hit
  * query is answered by it. */
-TR_FN_INLINE int tr_query_take(const TrSceneRef* s, TrNearest* nearest, real t, int prim, real tmin,
-                               int any_hit) {
+TR_FN_INLINE int tr_query_take(const TrSceneRef* s, TrNearest* nearest, real* uv, real t, int prim,
+                               real tmin, int any_hit, vec3 bary) {
   if (!tr_query_precedes_in(s, t, -1, prim, tmin, nearest->t, nearest->instance, nearest->prim))
     return 0;
-  nearest->t = t;
-  nearest->prim = prim;
-  nearest->instance = -1;
+  *nearest = tr_nearest(t, prim);
+  uv[0] = bary.y;
+  uv[1] = bary.z;
   return any_hit;
 }
 
 /* The planes (outside the BVH) offered to a query's nearest hit: closest hit, *nearest
  * updated; any hit, returns 1 at the first plane hit. */
 TR_FN_INLINE int tr_query_planes(const TrSceneRef* s, TrRay ray, real tmin, unsigned int mask,
-                                 TrNearest* nearest, int any_hit) {
+                                 TrNearest* nearest, real* uv, int any_hit) {
   if (TR_HAS(TR_F_PLANES)) {
     int n_bounded = s->params->n_spheres + s->params->n_triangles;
+    vec3 none = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
     for (int i = 0; i < s->params->n_planes; ++i)
       if (!tr_query_skips(s, n_bounded + i, mask) &&
-          tr_query_take(s, nearest, tr_plane_t(&s->planes[i], ray), n_bounded + i, tmin, any_hit))
+          tr_query_take(s, nearest, uv, tr_plane_t(&s->planes[i], ray), n_bounded + i, tmin,
+                        any_hit, none))
         return 1;
   }
   return 0;
@@ -58,29 +61,30 @@ TR_FN_INLINE int tr_query_planes(const TrSceneRef* s, TrRay ray, real tmin, unsi
  * planes. Closest hit: *nearest is the hit, and the result whether there is one. Any
  * hit: returns 1 at the first hit. */
 TR_FN_INLINE int tr_query_search(const TrSceneRef* s, TrRay ray, real tmin, unsigned int mask,
-                                 TrNearest* nearest, int any_hit) {
+                                 TrNearest* nearest, real* uv, int any_hit) {
   int n_spheres = s->params->n_spheres;
   int n_bounded = n_spheres + s->params->n_triangles;
   if (tr_use(s, TR_F_BVH)) {
-    if (tr_bvh_walk_query(s, ray, nearest, any_hit, tmin, mask) && any_hit) return 1;
+    if (tr_bvh_walk_query(s, ray, nearest, any_hit, tmin, mask, uv) && any_hit) return 1;
   } else {
+    vec3 bary = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
     if (TR_HAS(TR_F_SPHERES)) {
       for (int i = 0; i < n_spheres; ++i)
         if (!tr_query_skips(s, i, mask) &&
-            tr_query_take(s, nearest, tr_sphere_t_from(&s->spheres[i], ray, tmin), i, tmin,
-                          any_hit))
+            tr_query_take(s, nearest, uv, tr_sphere_t_from(&s->spheres[i], ray, tmin), i, tmin,
+                          any_hit, bary))
           return 1;
     }
     if (TR_HAS(TR_F_TRIANGLES)) {
       TrTriangleRay tri_ray = tr_triangle_ray(ray);
-      for (int i = n_spheres; i < n_bounded; ++i)
-        if (!tr_query_skips(s, i, mask) &&
-            tr_query_take(s, nearest, tr_triangle_t(&s->triangles[i - n_spheres], ray, &tri_ray), i,
-                          tmin, any_hit))
-          return 1;
+      for (int i = n_spheres; i < n_bounded; ++i) {
+        if (tr_query_skips(s, i, mask)) continue;
+        real t = tr_triangle_t_bary(&s->triangles[i - n_spheres], ray, &tri_ray, &bary);
+        if (tr_query_take(s, nearest, uv, t, i, tmin, any_hit, bary)) return 1;
+      }
     }
   }
-  if (tr_query_planes(s, ray, tmin, mask, nearest, any_hit)) return 1;
+  if (tr_query_planes(s, ray, tmin, mask, nearest, uv, any_hit)) return 1;
   return nearest->prim >= 0;
 }
 
@@ -93,20 +97,10 @@ TR_FN_INLINE TrRay tr_query_ray(TR_GLOBAL const TrQueryRay* r) {
   return ray;
 }
 
-/* A triangle hit's (u, v): the barycentric coordinates of vertices 1 and 2, from the
- * watertight test run once more on the ray that found it. */
-TR_FN_INLINE void tr_query_triangle_uv(TR_GLOBAL const TrTriangle* tri, TrRay ray, real* u,
-                                       real* v) {
-  TrTriangleRay tri_ray = tr_triangle_ray(ray);
-  vec3 bary = TR_VEC3(TR_R(0.0), TR_R(0.0), TR_R(0.0));
-  tr_triangle_t_bary(tri, ray, &tri_ray, &bary);
-  *u = bary.y;
-  *v = bary.z;
-}
-
 /* The surface parameters (u, v) of the nearest hit, whose record is *hit:
  *  - triangle: the barycentric coordinates of vertices 1 and 2 (the hit point is
- *    (1 - u - v) p0 + u p1 + v p2), from the same watertight test that found it;
+ *    (1 - u - v) p0 + u p1 + v p2), kept from the watertight test that found it
+ *    (uv[0], uv[1]);
  *  - sphere: the octahedral map of the outward unit normal n onto [0, 1]^2 (Cigolle et
  *    al., "A Survey of Efficient Representations for Independent Unit Vectors", JCGT
  *    3(2), 2014): (x, y) = (n.x, n.y) / |n|_1, folded over the diagonals where n.z < 0,
@@ -114,8 +108,8 @@ TR_FN_INLINE void tr_query_triangle_uv(TR_GLOBAL const TrTriangle* tri, TrRay ra
  *  - plane: the hit point's coordinates from the plane's point along the tangents b1,
  *    b2 of Duff et al., "Building an Orthonormal Basis, Revisited", JCGT 6(1), 2017,
  *    made from its unit normal. */
-TR_FN void tr_query_surface_uv(const TrSceneRef* s, TrRay ray, TrNearest nearest, const TrHit* hit,
-                               real* u, real* v) {
+TR_FN void tr_query_surface_uv(const TrSceneRef* s, TrNearest nearest, const real* uv,
+                               const TrHit* hit, real* u, real* v) {
   int n_spheres = s->params->n_spheres, n_bounded = n_spheres + s->params->n_triangles;
   int prim = nearest.prim;
   *u = TR_R(0.0);
@@ -133,7 +127,8 @@ TR_FN void tr_query_surface_uv(const TrSceneRef* s, TrRay ray, TrNearest nearest
     *u = x * TR_R(0.5) + TR_R(0.5);
     *v = y * TR_R(0.5) + TR_R(0.5);
   } else if (TR_HAS(TR_F_TRIANGLES) && prim < n_bounded) {
-    tr_query_triangle_uv(&s->triangles[prim - n_spheres], ray, u, v);
+    *u = uv[0];
+    *v = uv[1];
   } else if (TR_HAS(TR_F_PLANES)) {
     TR_GLOBAL const TrPlane* pl = &s->planes[prim - n_bounded];
     vec3 n = tr_plane_normal(pl);
@@ -151,8 +146,8 @@ TR_FN void tr_query_surface_uv(const TrSceneRef* s, TrRay ray, TrNearest nearest
 /* The answer of a closest-hit query into *out (TrQueryHit) and, where extra_flags asks
  * (TR_QUERY_*), the extras into *extras (fields not asked for are 0): the hit of ray
  * `ray` at nearest where `found`, else a miss. */
-TR_FN void tr_query_write(const TrSceneRef* s, TrRay ray, TrNearest nearest, int found,
-                          TR_GLOBAL TrQueryHit* out, TR_GLOBAL TrQueryExtras* extras,
+TR_FN void tr_query_write(const TrSceneRef* s, TrRay ray, TrNearest nearest, const real* uv,
+                          int found, TR_GLOBAL TrQueryHit* out, TR_GLOBAL TrQueryExtras* extras,
                           int extra_flags) {
   TrQueryHit h;
   h.t = TR_R(INFINITY);
@@ -188,14 +183,15 @@ TR_FN void tr_query_write(const TrSceneRef* s, TrRay ray, TrNearest nearest, int
       /* A triangle with no extras asked: its (u, v) and normal, the same values the
        * full record (tr_triangle_record) holds, without the rest of the record. */
       TR_GLOBAL const TrTriangle* tri = &s->triangles[triangle];
-      tr_query_triangle_uv(tri, asset_ray, &h.u, &h.v);
+      h.u = uv[0];
+      h.v = uv[1];
       n = tr_triangle_unit_normal(tri);
       object = tri->object;
       if (in_instance) n = tr_instance_normal(&s->instances[nearest.instance], n);
     } else {
       TrHit hit;
       tr_record_hit(s, asset_ray, asset_nearest, &hit);
-      tr_query_surface_uv(s, asset_ray, asset_nearest, &hit, &h.u, &h.v);
+      tr_query_surface_uv(s, asset_nearest, uv, &hit, &h.u, &h.v);
       object = hit.object;
       if (in_instance) tr_instance_hit_to_world(&s->instances[nearest.instance], &hit);
       n = hit.n;
@@ -235,23 +231,20 @@ TR_FN void tr_query_intersect(const TrSceneRef* s, TR_GLOBAL const TrQueryRay* i
                               TR_GLOBAL TrQueryHit* out, TR_GLOBAL TrQueryExtras* extras,
                               int extra_flags) {
   TrRay ray = tr_query_ray(in);
-  TrNearest nearest;
-  nearest.t = in->tmax;
-  nearest.prim = -1;
-  nearest.instance = -1;
-  int found = tr_query_ray_valid(in) && tr_query_search(s, ray, in->tmin, in->mask, &nearest, 0);
-  tr_query_write(s, ray, nearest, found, out, extras, extra_flags);
+  TrNearest nearest = tr_nearest(in->tmax, -1);
+  real uv[2] = {TR_R(0.0), TR_R(0.0)};
+  int found =
+      tr_query_ray_valid(in) && tr_query_search(s, ray, in->tmin, in->mask, &nearest, uv, 0);
+  tr_query_write(s, ray, nearest, uv, found, out, extras, extra_flags);
 }
 
 /* Whether anything lies on *in within [tmin, tmax] (t > 0): exactly when
  * tr_query_intersect finds a hit. 0 for a ray that is not valid. */
 TR_FN int tr_query_occluded(const TrSceneRef* s, TR_GLOBAL const TrQueryRay* in) {
   if (!tr_query_ray_valid(in)) return 0;
-  TrNearest limit;
-  limit.t = in->tmax;
-  limit.prim = -1;
-  limit.instance = -1;
-  return tr_query_search(s, tr_query_ray(in), in->tmin, in->mask, &limit, 1);
+  TrNearest limit = tr_nearest(in->tmax, -1);
+  real uv[2];
+  return tr_query_search(s, tr_query_ray(in), in->tmin, in->mask, &limit, uv, 1);
 }
 
 /* Ray queries in packets (the CPU backend; the OpenCL kernels answer a ray per
@@ -341,6 +334,8 @@ TR_FN int tr_query_packet_load(TrQueryPacket* qp, TR_GLOBAL const TrQueryRay* in
     pk->prim[k] = -1;
     qp->lanes.tmin[k] = r->tmin;
     qp->lanes.mask[k] = r->mask;
+    pk->u[k] = TR_R(0.0);
+    pk->v[k] = TR_R(0.0);
     qp->index[k] = pick[k];
   }
   pk->n = n;
@@ -407,15 +402,15 @@ TR_FN_INLINE int tr_query_packet_bvh(const TrSceneRef* s, TrQueryPacket* qp, int
     return 1;
   }
   for (int r = 0; r < pk->n; ++r) {
-    TrNearest nearest;
-    nearest.t = pk->t[r];
-    nearest.prim = pk->prim[r];
-    nearest.instance = -1;
-    int blocked =
-        tr_bvh_walk_query(s, pk->ray[r], &nearest, any_hit, qp->lanes.tmin[r], qp->lanes.mask[r]) &&
-        any_hit;
+    TrNearest nearest = tr_nearest(pk->t[r], pk->prim[r]);
+    real uv[2] = {pk->u[r], pk->v[r]};
+    int blocked = tr_bvh_walk_query(s, pk->ray[r], &nearest, any_hit, qp->lanes.tmin[r],
+                                    qp->lanes.mask[r], uv) &&
+                  any_hit;
     pk->t[r] = blocked ? TR_R(-1.0) : nearest.t;
     pk->prim[r] = nearest.prim;
+    pk->u[r] = uv[0];
+    pk->v[r] = uv[1];
   }
   return 0;
 }
@@ -452,17 +447,15 @@ TR_FN_INLINE int tr_query_rays(const TrSceneRef* s, TrQueryPacket* qp,
         if (tr_query_packet_bvh(s, qp, any_hit)) walked += pk->n;
         for (int r = 0; r < pk->n; ++r) {
           int i = at + qp->index[r];
-          TrNearest nearest;
-          nearest.t = pk->t[r];
-          nearest.prim = any_hit ? -1 : pk->prim[r];
-          nearest.instance = -1;
+          TrNearest nearest = tr_nearest(pk->t[r], any_hit ? -1 : pk->prim[r]);
+          real uv[2] = {pk->u[r], pk->v[r]};
           int b = (any_hit && pk->t[r] < TR_R(0.0)) ||
-                  tr_query_planes(s, pk->ray[r], qp->lanes.tmin[r], qp->lanes.mask[r], &nearest,
+                  tr_query_planes(s, pk->ray[r], qp->lanes.tmin[r], qp->lanes.mask[r], &nearest, uv,
                                   any_hit);
           if (any_hit)
             blocked[i] = (unsigned char)(b ? 1 : 0);
           else
-            tr_query_write(s, pk->ray[r], nearest, nearest.prim >= 0, &out[i],
+            tr_query_write(s, pk->ray[r], nearest, uv, nearest.prim >= 0, &out[i],
                            extra_flags != 0 ? &extras[i] : extras, extra_flags);
         }
       }

@@ -58,10 +58,7 @@ TR_FN_INLINE int tr_closest_hit_finish(const TrSceneRef* s, TrRay ray, TrNearest
  * stall on every ray (up to a tenth of a frame, docs/performance.md). */
 TR_FN_OUTLINE int tr_closest_hit(const TrSceneRef* s, const TrRay* ray_in, real tmax, TrHit* hit) {
   TrRay ray = *ray_in;
-  TrNearest nearest;
-  nearest.t = tmax;
-  nearest.prim = -1;
-  nearest.instance = -1;
+  TrNearest nearest = tr_nearest(tmax, -1);
   int n_spheres = s->params->n_spheres;
   TR_COUNT_RAY();
   if (tr_use(s, TR_F_BVH)) {
@@ -96,10 +93,7 @@ TR_FN_OUTLINE int tr_any_hit(const TrSceneRef* s, const TrRay* ray_in, real tmax
   TrRay ray = *ray_in;
   TR_COUNT_RAY();
   if (tr_use(s, TR_F_BVH)) {
-    TrNearest limit;
-    limit.t = tmax;
-    limit.prim = -1;
-    limit.instance = -1;
+    TrNearest limit = tr_nearest(tmax, -1);
     if (tr_bvh_walk(s, ray, &limit, 1)) return 1;
   } else {
     if (TR_HAS(TR_F_SPHERES)) {
@@ -155,10 +149,7 @@ TR_FN_OUTLINE void tr_closest_hit_packet(const TrSceneRef* s, TrRayPacket* pk, T
   tr_packet_bvh(s, pk, tr_packet_begin(pk), 0);
   tr_packet_planes(s, pk, 0);
   for (int r = 0; r < pk->n; ++r) {
-    TrNearest nearest;
-    nearest.t = pk->t[r];
-    nearest.prim = pk->prim[r];
-    nearest.instance = -1;
+    TrNearest nearest = tr_nearest(pk->t[r], pk->prim[r]);
     TR_COUNT_RAY();
     found[r] = nearest.prim >= 0;
     if (found[r])

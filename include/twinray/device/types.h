@@ -243,7 +243,11 @@ typedef struct TrHit {
 
 /* The nearest hit found so far: only its distance and primitive (ids: spheres, then
  * triangles, then planes, each in packed order; -1 while there is none, with t the
- * ray's tmax). The hit record is made from it once, at the end (scene_hit.h). */
+ * ray's tmax). The hit record is made from it once, at the end (scene_hit.h). A ray
+ * query's walk also keeps the nearest triangle hit's barycentrics, so that its answer
+ * needs no second test (tr_bvh_walk_query), in a real[2] beside this struct, not in
+ * it: the renderer passes it by value, 12 bytes in two registers (with the two more
+ * it went through memory, and frames of mesh_1e6 took 1.12 times as long). */
 typedef struct TrNearest {
   real t;
   int prim;
@@ -278,6 +282,10 @@ typedef struct TR_ALIGNED(TR_LINE_BYTES) TrRayPacket {
   TrRay ray[TR_PACKET_MAX];
   vec3 o_lo, o_hi, i_lo, i_hi, f_lo, f_hi;
   TrSlabRows rows; /* shared: every ray's direction has the same signs */
+  /* Ray queries: each ray's nearest triangle hit's barycentrics (tr_bvh_walk_query's
+   * uv). Last, so that the renderer's fields keep their places. */
+  TR_ALIGNED(TR_LINE_BYTES) real u[TR_PACKET_MAX];
+  real v[TR_PACKET_MAX];
 } TrRayPacket;
 
 /* What a packet of ray queries adds to the renderer's packet (ray_query.h): each ray's
